@@ -1,0 +1,1 @@
+"""Host tools for trackpilot (CPython). The `trackpilot` command lives in cli.py."""
