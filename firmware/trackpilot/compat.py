@@ -7,17 +7,20 @@ except ImportError:  # CPython
         return x
 
 
-try:
-    from time import ticks_add, ticks_diff  # noqa: F401
-except ImportError:  # CPython: emulate the ESP32's 2**30 ms wrap so host code sees the same behaviour
-    _TICKS_PERIOD = 1 << 30
-    _TICKS_HALF = _TICKS_PERIOD >> 1
+# Millisecond ticks wrap at 2**30 as on the ESP32, on every platform (the unix port wraps at 2**62,
+# which would hide wrap bugs). The core only ever compares t_ms values through these two.
+TICKS_PERIOD = const(1 << 30)
+TICKS_MASK = const((1 << 30) - 1)
+_TICKS_HALF = const(1 << 29)
 
-    def ticks_add(t, delta):
-        return (t + delta) % _TICKS_PERIOD
 
-    def ticks_diff(a, b):
-        return ((a - b + _TICKS_HALF) % _TICKS_PERIOD) - _TICKS_HALF
+def ticks_add(t_ms, delta_ms):
+    return (t_ms + delta_ms) & TICKS_MASK
+
+
+def ticks_diff(a_ms, b_ms):
+    """a - b in ms, correct across the wrap while |a - b| < 2**29 ms (6.2 days)."""
+    return ((a_ms - b_ms + _TICKS_HALF) & TICKS_MASK) - _TICKS_HALF
 
 
 def wrap180(a_deg):

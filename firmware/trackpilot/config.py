@@ -1,0 +1,247 @@
+"""Configuration: a JSON file on flash, validated against a schema, written atomically.
+
+A file that does not parse or validate never replaces the active configuration: `load()` falls back
+to the last good copy (`config.good.json`, written whenever a file validates) and reports why, or to
+the defaults with the reason, never silently.
+
+Usage:
+    cfg, problems = load("/config.json")     # problems: list of strings to log; cfg always valid
+    cfg["guidance"]["law"]                    # "seed" or "los"
+    errors = validate(candidate)              # [] when good
+    save("/config.json", candidate)           # raises ConfigError, keeps the old file on error
+"""
+import json
+
+try:
+    import os
+except ImportError:  # pragma: no cover
+    import uos as os
+
+
+class ConfigError(Exception):
+    pass
+
+
+# Every setting with its default and its allowed range or choices: (default, kind, lo, hi)
+# kind: "f" float, "i" int, "b" bool, "s" string (lo = tuple of choices or None).
+SCHEMA = {
+    "boat": {
+        "name": ("trackpilot", "s", None, None),
+        "min_turn_radius_m": (9.0, "f", 2.0, 100.0),
+        "antenna_fwd_m": (0.0, "f", -10.0, 10.0),  # lever arm of the position antenna from the
+        "antenna_stbd_m": (0.0, "f", -5.0, 5.0),  # reference point (forward, starboard)
+        "heading_offset_deg": (0.0, "f", -180.0, 180.0),  # dual-antenna baseline mounting offset
+    },
+    "guidance": {
+        "law": ("los", "s", ("seed", "los"), None),
+        "seed_blend_m": (30.0, "f", 1.0, 200.0),
+        "seed_k_y_deg_per_m": (3.0, "f", 0.0, 30.0),
+        "seed_k_psi": (1.0, "f", 0.0, 5.0),
+        "seed_clip_deg": (30.0, "f", 1.0, 90.0),
+    },
+    "modes": {
+        "gnss_hold_s": (10.0, "f", 0.0, 120.0),
+        "gnss_stale_ms": (1000, "i", 300, 10000),
+        "xte_alarm_m": (5.0, "f", 0.5, 100.0),
+        "on_arrival": ("standby", "s", ("standby", "hold"), None),
+        "engage_min_rtk": ("fixed", "s", ("fixed", "float", "single"), None),
+        "steer_min_rtk": ("float", "s", ("fixed", "float", "single"), None),
+        "correction_max_age_s": (0.0, "f", 0.0, 600.0),  # 0 = not checked (no NTRIP configured)
+        "motor_release_on_standby": (True, "b", None, None),
+    },
+    "pilot": {
+        "sender_id": (1, "i", 0, 15),
+        "key_interval_ms": (250, "i", 50, 5000),
+        "odd_rule": ("dotnet", "s", ("dotnet", "knauf"), None),
+        "status_timeout_ms": (3500, "i", 1000, 30000),
+        "deadband_deg": (1, "i", 0, 10),
+    },
+    "motor": {
+        "link": ("rs232", "s", ("rs232", "pwm", "none"), None),
+        "frame": ("ascii", "s", ("ascii", "binary"), None),
+        "keepalive_ms": (200, "i", 50, 5000),
+        "reply_timeout_ms": (1500, "i", 200, 20000),
+        "expect_replies": (True, "b", None, None),
+        "rpm_per_mps": (400.0, "f", 1.0, 5000.0),  # speed -> RPM map (linear part)
+        "rpm_offset": (0.0, "f", -500.0, 500.0),
+        "rpm_max": (1500, "i", 0, 10000),
+        "slow_rpm": (200, "i", 0, 5000),
+        "release_rpm": (0, "i", 0, 5000),
+        "sog_loop": (False, "b", None, None),  # outer loop on GPS speed over ground
+        "sog_loop_gain_rpm_per_mps": (150.0, "f", 0.0, 2000.0),
+        "sog_loop_limit_rpm": (300, "i", 0, 3000),
+        "low_battery_v": (44.0, "f", 0.0, 100.0),
+    },
+    "log": {
+        "dir": ("/log", "s", None, None),
+        "flush_ms": (1000, "i", 100, 10000),
+        "max_file_bytes": (1048576, "i", 4096, 16777216),
+        "min_free_bytes": (262144, "i", 0, 16777216),
+    },
+    "ntrip": {
+        "enabled": (False, "b", None, None),
+        "host": ("", "s", None, None),
+        "port": (2101, "i", 1, 65535),
+        "mountpoint": ("", "s", None, None),
+        "user": ("", "s", None, None),
+        "password": ("", "s", None, None),
+        "gga_interval_s": (10, "i", 0, 600),
+    },
+    "telemetry": {
+        "enabled": (False, "b", None, None),
+        "udp_host": ("255.255.255.255", "s", None, None),
+        "udp_port": (10110, "i", 1, 65535),
+        "status_port": (10111, "i", 1, 65535),
+        "period_ms": (1000, "i", 100, 10000),
+    },
+}
+
+
+def defaults():
+    out = {}
+    for sec, fields in SCHEMA.items():
+        out[sec] = {}
+        for key, spec in fields.items():
+            out[sec][key] = spec[0]
+    return out
+
+
+def _check(sec, key, value, spec, errors):
+    default, kind, lo, hi = spec
+    where = "%s.%s" % (sec, key)
+    if kind == "b":
+        if value is not True and value is not False:
+            errors.append("%s: must be true or false, got %r" % (where, value))
+        return
+    if kind == "s":
+        if not isinstance(value, str):
+            errors.append("%s: must be a string, got %r" % (where, value))
+        elif lo is not None and value not in lo:
+            errors.append("%s: must be one of %s, got %r" % (where, "/".join(lo), value))
+        return
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        errors.append("%s: must be a number, got %r" % (where, value))
+        return
+    if kind == "i" and not isinstance(value, int):
+        errors.append("%s: must be a whole number, got %r" % (where, value))
+        return
+    if value != value or value < lo or value > hi:  # value != value: NaN
+        errors.append("%s: %r out of range [%s, %s]" % (where, value, lo, hi))
+
+
+def validate(cfg):
+    """Errors (strings) for a candidate configuration; [] when it is good. Unknown keys are errors
+    (a typo must not silently fall back to a default)."""
+    errors = []
+    if not isinstance(cfg, dict):
+        return ["configuration must be a JSON object"]
+    for sec, body in cfg.items():
+        if sec not in SCHEMA:
+            errors.append("unknown section %r" % sec)
+            continue
+        if not isinstance(body, dict):
+            errors.append("%s: must be an object" % sec)
+            continue
+        for key, value in body.items():
+            spec = SCHEMA[sec].get(key)
+            if spec is None:
+                errors.append("%s.%s: unknown setting" % (sec, key))
+            else:
+                _check(sec, key, value, spec, errors)
+    return errors
+
+
+def merged(cfg):
+    """Defaults overlaid with a validated (possibly partial) configuration."""
+    out = defaults()
+    for sec, body in cfg.items():
+        out[sec].update(body)
+    return out
+
+
+def parse(text):
+    """Text -> (complete config, errors). On errors the config is None."""
+    try:
+        cfg = json.loads(text)
+    except ValueError as e:
+        return None, ["not valid JSON: %s" % e]
+    errors = validate(cfg)
+    if errors:
+        return None, errors
+    return merged(cfg), []
+
+
+def _read(path):
+    with open(path) as f:
+        return f.read()
+
+
+def _exists(path):
+    try:
+        os.stat(path)
+        return True
+    except OSError:
+        return False
+
+
+def _good_path(path):
+    return path[:-5] + ".good.json" if path.endswith(".json") else path + ".good"
+
+
+def write_atomic(path, text):
+    """Write to a temporary name, then rename (atomic on littlefs and POSIX)."""
+    tmp = path + ".tmp"
+    with open(tmp, "w") as f:
+        f.write(text)
+    try:
+        os.rename(tmp, path)
+    except OSError:
+        try:  # some filesystems refuse to rename over an existing file
+            os.remove(path)
+        except OSError:
+            pass
+        os.rename(tmp, path)
+
+
+def load(path):
+    """Returns (config, problems). The config is always complete and valid."""
+    problems = []
+    if _exists(path):
+        try:
+            cfg, errors = parse(_read(path))
+        except OSError as e:
+            cfg, errors = None, ["cannot read: %s" % e]
+        if cfg is not None:
+            good = _good_path(path)
+            try:
+                text = json.dumps(cfg)
+                if not _exists(good) or _read(good) != text:
+                    write_atomic(good, text)
+            except OSError as e:
+                problems.append("could not keep a last-good copy: %s" % e)
+            return cfg, problems
+        problems.append("%s rejected: %s" % (path, "; ".join(errors)))
+        good = _good_path(path)
+        if _exists(good):
+            try:
+                cfg, errors = parse(_read(good))
+            except OSError as e:
+                cfg, errors = None, ["cannot read: %s" % e]
+            if cfg is not None:
+                problems.append("using the last good configuration %s" % good)
+                return cfg, problems
+            problems.append("%s rejected too: %s" % (good, "; ".join(errors)))
+        problems.append("using the built-in defaults")
+        return defaults(), problems
+    problems.append("%s not found: using the built-in defaults" % path)
+    return defaults(), problems
+
+
+def save(path, cfg):
+    """Validate and write atomically; raises ConfigError and leaves the old file on a bad config."""
+    errors = validate(cfg)
+    if errors:
+        raise ConfigError("; ".join(errors))
+    text = json.dumps(merged(cfg))
+    write_atomic(path, text)
+    write_atomic(_good_path(path), text)
