@@ -15,9 +15,10 @@ def pytest_configure(config):
     config.addinivalue_line("markers", "mpy: runs firmware code under the MicroPython unix port")
 
 
-def pytest_collect_file(parent, file_path):
-    if file_path.parent.name == "mpy" and file_path.name.startswith("test_") and file_path.suffix == ".py":
-        return MpyFile.from_parent(parent, path=file_path)
+def pytest_pycollect_makemodule(module_path, parent):
+    """tests/mpy/test_*.py are MicroPython scripts: run them, do not import them into CPython."""
+    if module_path.parent.name == "mpy":
+        return MpyFile.from_parent(parent, path=module_path)
     return None
 
 
