@@ -1,0 +1,59 @@
+"""Entry point of the firmware in simulation (docs/SIM_PROTOCOL.md).
+
+    micropython firmware/sim_main.py --config CFG.json --track TRACK.csv --data DIR [--seed N]
+
+Runs the same App as main.py on the ESP32; only the wiring and the clock/event-loop adapter differ.
+Diagnostics go to stderr; stdout carries the protocol.
+"""
+import sys
+
+
+def _args(argv):
+    opts = {"--config": None, "--track": None, "--data": "/tmp/trackpilot_sim", "--seed": "1",
+            "--reset-cause": "power-on", "--tick-base": None, "--quiet": None}
+    i = 1
+    while i < len(argv):
+        a = argv[i]
+        if a == "--quiet":
+            opts[a] = "1"
+            i += 1
+            continue
+        if a not in opts or i + 1 >= len(argv):
+            raise SystemExit("sim_main: unknown or incomplete option %s" % a)
+        opts[a] = argv[i + 1]
+        i += 2
+    return opts
+
+
+def main():
+    from trackpilot import config
+    from trackpilot.simio import SimLink
+    from trackpilot.wiring_sim import Wiring
+
+    opts = _args(sys.argv)
+    if opts["--config"]:
+        cfg, problems = config.load(opts["--config"])
+    else:
+        cfg, problems = config.defaults(), ["no --config: built-in defaults"]
+    base = int(opts["--tick-base"]) if opts["--tick-base"] else (1 << 30) - 60000
+    link = SimLink(sys.stdin.buffer, sys.stdout.buffer, tick_base=base)
+    asyncio = link.install()
+    wiring = Wiring(link, opts["--data"], seed=int(opts["--seed"]), quiet=bool(opts["--quiet"]))
+    from trackpilot.app import App
+
+    app = App(wiring, cfg, problems, reset_cause=opts["--reset-cause"])
+    link.stop_callback = app.stop_event.set
+    if opts["--track"]:
+        app.load_track(opts["--track"])
+    asyncio.run(app.run())
+    sys.stderr.write("sim_main: stopped at t=%d ms, epochs %d, peak heap %d B\n" % (
+        link.t_ms, app.epochs, app.peak_heap))
+
+
+try:
+    main()
+except SystemExit:
+    raise
+except BaseException as e:  # the protocol owns stdout: tracebacks go to stderr
+    sys.print_exception(e, sys.stderr)
+    sys.exit(1)
