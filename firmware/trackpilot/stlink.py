@@ -1,0 +1,216 @@
+"""SeaTalk1 bus access: idle wait, per-byte parity, echo check, random backoff, bounded retries.
+
+Pure logic with injected time and randomness; the asyncio shell owns the UART.
+
+Driving contract (the shell does exactly this):
+    link = StLink(framer=seatalk.Framer(), on_datagram=pilot.on_datagram, rand=Prng(seed))
+    link.send(dg)               # queue a datagram; False when the queue is full (bounded)
+    # for EVERY byte read from the SeaTalk UART, in order, with its arrival time:
+    link.on_rx(byte, t_ms)      # the echo of our own bytes is consumed here; all other bytes go
+                                # to the framer, and each framed datagram to on_datagram(dg, t_ms)
+    # then, and whenever the time given by WAIT has come:
+    act = link.poll(t_ms)
+      act == IDLE:  nothing queued; call poll again after send() or on_rx()
+      act == WAIT:  nothing to write before link.until_ms (poll again then, or after on_rx)
+      act == WRITE: set the UART parity to link.parity ("E"/"O"; uart.init(parity=0/1) on the
+                    ESP32, which drains the TX FIFO first) and write the single byte link.byte
+                    now; then read its echo and pass it to on_rx. Call poll again afterwards.
+    ev = link.pop_event()       # (EV_SENT|EV_FAILED|EV_COLLISION, t_ms, text) or None
+poll() never returns WRITE twice without an echo, an echo timeout, or a backoff in between, and
+every datagram ends in exactly one EV_SENT or EV_FAILED: the link never hangs.
+
+Timing defaults (4800 Bd, 11 bits a character = 2.29 ms): the bus counts as idle after
+`idle_ms` = 3 ms without a received byte (>= 10 bit times = 2.08 ms, rounded up to whole ms) plus
+a random 0..`extra_wait_ms`; an echo must arrive within `echo_timeout_ms` = 10 ms; a collision
+(wrong byte back, or none) backs off a random `backoff_min_ms`..`backoff_max_ms` = 2..50 ms and
+retries the whole datagram, at most `retries` = 5 times, then EV_FAILED.
+
+Usage with a fake bus (tests): see tests/mpy/test_seatalk_link.py.
+"""
+from trackpilot.compat import const, ticks_add, ticks_diff
+from trackpilot.seatalk import parity_for
+
+IDLE = const(0)
+WAIT = const(1)
+WRITE = const(2)
+
+EV_SENT = const(1)
+EV_FAILED = const(2)
+EV_COLLISION = const(3)
+EV_NAMES = ("", "SENT", "FAILED", "COLLISION")
+
+_S_IDLE = const(0)  # nothing to send
+_S_WAIT_BUS = const(1)  # waiting for the bus to be idle
+_S_WRITE = const(2)  # next byte may go out now
+_S_ECHO = const(3)  # byte written, waiting for its echo
+_S_BACKOFF = const(4)  # after a collision
+
+
+class Prng:
+    """Small seedable xorshift32 (deterministic backoff in tests and simulation). Seed the boat's
+    instance from os.urandom in the wiring."""
+
+    def __init__(self, seed=1):
+        self.s = (seed & 0xFFFFFFFF) or 0x2545F491
+
+    def randint(self, lo, hi):
+        s = self.s
+        s ^= (s << 13) & 0xFFFFFFFF
+        s ^= s >> 17
+        s ^= (s << 5) & 0xFFFFFFFF
+        self.s = s
+        return lo + (s >> 8) % (hi - lo + 1)
+
+
+class StLink:
+    def __init__(self, framer=None, on_datagram=None, rand=None, idle_ms=3, extra_wait_ms=0,
+                 echo_timeout_ms=10, backoff_min_ms=2, backoff_max_ms=50, retries=5,
+                 queue_len=4, events_len=16):
+        self.framer = framer
+        self.on_datagram = on_datagram
+        self.rand = rand if rand is not None else Prng(1)
+        self.idle_ms = idle_ms
+        self.extra_wait_ms = extra_wait_ms
+        self.echo_timeout_ms = echo_timeout_ms
+        self.backoff_min_ms = backoff_min_ms
+        self.backoff_max_ms = backoff_max_ms
+        self.retries = retries
+        self._qmax = queue_len
+        self._q = []
+        self._evmax = events_len
+        self._ev = []
+        self._s = _S_IDLE
+        self._dg = None  # datagram being sent
+        self._i = 0  # index of the next byte to write / the byte awaiting its echo
+        self._tries = 0
+        self._last_rx = None  # t_ms of the last received byte
+        self._deadline = 0
+        self._wait = 0  # extra idle wait drawn for this attempt
+        self._reason = ""
+        # what poll() asks for
+        self.byte = 0
+        self.parity = "E"
+        self.until_ms = 0
+        # counters
+        self.sent = 0
+        self.failed = 0
+        self.collisions = 0
+        self.no_echo = 0
+        self.rx_bytes = 0
+        self.events_dropped = 0
+
+    def busy(self):
+        return self._s != _S_IDLE or bool(self._q)
+
+    def send(self, dg):
+        """Queue one complete datagram (bytes). False when the queue is full; ValueError when
+        the bytes are not a datagram (length must match the attribute nibble)."""
+        n = len(dg)
+        if n < 3 or n != 3 + (dg[1] & 0x0F):
+            raise ValueError("not a SeaTalk datagram: %d bytes, attribute %02x" % (n, dg[1] if n > 1 else 0))
+        if len(self._q) >= self._qmax:
+            return False
+        self._q.append(bytes(dg))
+        return True
+
+    def pop_event(self):
+        return self._ev.pop(0) if self._ev else None
+
+    def _event(self, kind, t_ms, text):
+        if len(self._ev) >= self._evmax:
+            self._ev.pop(0)
+            self.events_dropped += 1
+        self._ev.append((kind, t_ms, text))
+
+    def _deliver(self, b, t_ms):
+        fr = self.framer
+        if fr is None:
+            return
+        fr.feed(b, t_ms)
+        if self.on_datagram is not None:
+            while fr.pending():
+                self.on_datagram(fr.pop(), t_ms)
+
+    def on_rx(self, b, t_ms):
+        """Every byte the UART received (our own echo included), in order."""
+        self.rx_bytes += 1
+        self._last_rx = t_ms
+        if self._s == _S_ECHO:
+            if b == self._dg[self._i]:
+                self._i += 1
+                if self._i == len(self._dg):
+                    self.sent += 1
+                    self._event(EV_SENT, t_ms, self._dg)
+                    if self.framer is not None:
+                        self.framer.reset()  # the next byte starts a datagram
+                    self._next(t_ms)
+                else:
+                    self._s = _S_WRITE
+                return
+            self._collision(t_ms, "echo %02x for %02x at byte %d" % (b, self._dg[self._i], self._i))
+            if self.framer is not None:
+                self.framer.reset()
+        self._deliver(b, t_ms)
+
+    def _collision(self, t_ms, reason):
+        self.collisions += 1
+        self._tries += 1
+        self._reason = reason
+        self._event(EV_COLLISION, t_ms, reason)
+        if self._tries > self.retries:
+            self.failed += 1
+            self._event(EV_FAILED, t_ms, "after %d tries: %s" % (self._tries, reason))
+            self._next(t_ms)
+            return
+        self._s = _S_BACKOFF
+        self._deadline = ticks_add(t_ms, self.rand.randint(self.backoff_min_ms, self.backoff_max_ms))
+
+    def _next(self, t_ms):
+        if self._q:
+            self._dg = self._q.pop(0)
+            self._tries = 0
+            self._start_wait()
+        else:
+            self._dg = None
+            self._s = _S_IDLE
+
+    def _start_wait(self):
+        self._s = _S_WAIT_BUS
+        self._i = 0
+        self._wait = self.idle_ms + (self.rand.randint(0, self.extra_wait_ms) if self.extra_wait_ms else 0)
+
+    def poll(self, t_ms):
+        """The next action (IDLE, WAIT with self.until_ms, or WRITE with self.byte/self.parity)."""
+        s = self._s
+        if s == _S_IDLE:
+            if not self._q:
+                return IDLE
+            self._next(t_ms)
+            s = self._s
+        if s == _S_BACKOFF:
+            if ticks_diff(t_ms, self._deadline) < 0:
+                self.until_ms = self._deadline
+                return WAIT
+            self._start_wait()
+            s = self._s
+        if s == _S_ECHO:
+            if ticks_diff(t_ms, self._deadline) < 0:
+                self.until_ms = self._deadline
+                return WAIT
+            self.no_echo += 1
+            self._collision(t_ms, "no echo for byte %d (%02x)" % (self._i, self._dg[self._i]))
+            return self.poll(t_ms)
+        if s == _S_WAIT_BUS:
+            if self._last_rx is not None:
+                free_at = ticks_add(self._last_rx, self._wait)
+                if ticks_diff(t_ms, free_at) < 0:
+                    self.until_ms = free_at
+                    return WAIT
+            self._s = _S_WRITE
+        # _S_WRITE: one byte, its parity carrying the command bit
+        b = self._dg[self._i]
+        self.byte = b
+        self.parity = parity_for(b, self._i == 0)
+        self._s = _S_ECHO
+        self._deadline = ticks_add(t_ms, self.echo_timeout_ms)
+        return WRITE
