@@ -20,7 +20,8 @@ def fx(v, d):
     sign = "-" if v < 0 else ""
     v = -v if v < 0 else v
     p = 10 ** d
-    return "%s%d.%0*d" % (sign, v // p, d, v % p)
+    frac = "%d" % (v % p)
+    return "%s%d.%s%s" % (sign, v // p, "0" * (d - len(frac)), frac)
 
 
 def qs(c):
@@ -202,19 +203,16 @@ def main(argv):
                          epoch_timeout_ms=0)
     if not fixes:
         gp.on_msg = lambda kind: print(msg_json(gp, kind))
+    else:
+        gp.on_epoch = lambda: print(fix_json(fix))
     buf = bytearray(chunk)
     with open(path, "rb") as fh:
         while True:
             n = fh.readinto(buf)
             if not n:
                 break
-            if gp.feed(buf, n, 0) and fixes:
-                print(fix_json(fix))
-    # a stream that ends mid-epoch: close it (same rule as the epoch timeout)
-    gp._done = 0
-    gp._close()
-    if gp._done and fixes:
-        print(fix_json(fix))
+            gp.feed(buf, n, 0)
+    gp.flush(0)  # the stream ended: close the last epoch
     sys.stderr.write(stats_json(gp.stats) + "\n")
 
 

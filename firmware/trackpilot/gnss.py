@@ -36,7 +36,7 @@ from trackpilot.compat import const, ticks_diff
 from trackpilot.fix import RTK_FIXED, RTK_FLOAT, RTK_NONE, RTK_SINGLE, Fix
 
 BUF_SIZE = const(512)
-NMEA_MAX = const(120)  # NMEA says 82; u-blox PUBX and some talkers send longer lines
+NMEA_MAX = const(480)  # NMEA says 82; u-blox PUBX,03 lines run to 400+
 UBX_MAX_SKIP = const(4096)  # longer "UBX" lengths are taken as garbage, not skipped
 
 # message kinds (on_msg argument, `sources` bit = 1 << kind)
@@ -188,7 +188,8 @@ class GnssParser:
         self.epoch_timeout_ms = epoch_timeout_ms
         self.skip_comments = skip_comments
         self.stats = GnssStats()
-        self.on_msg = None
+        self.on_msg = None  # on_msg(kind) after each decoded message
+        self.on_epoch = None  # on_epoch() after each completed epoch (self.fix filled)
         self._buf = bytearray(BUF_SIZE)
         self.buf = self._buf  # frame_start/frame_len index it inside on_msg
         self.frame_start = 0
@@ -435,7 +436,16 @@ class GnssParser:
         self._skip = total
         self._skip_pos = 0
         self._ck_a = self._ck_b = self._crc = self._ck_rx = 0
-        self._skip_bytes(self._buf, s, end)
+        b = self._buf
+        o = self.other
+        if kind == _SKIP_UBX:
+            o.cls = b[s + 2]
+            o.id = b[s + 3]
+            o.length = total - 8
+        else:
+            self.rtcm.length = total - 6
+            self.rtcm.msg_type = (b[s + 3] << 4) | (b[s + 4] >> 4) if end - s >= 5 else 0
+        self._skip_bytes(b, s, end)
         self._start = self._end = self._scan = 0
 
     def _skip_bytes(self, data, i, n):
@@ -485,8 +495,12 @@ class GnssParser:
                 if self._skip_kind == _SKIP_UBX:
                     self.stats.ubx_ok += 1
                     self.stats.unknown += 1
+                    self._skip_kind = _S_HUNT
+                    self._emit(K_UBX_OTHER)
                 else:
                     self.stats.rtcm_ok += 1
+                    self._skip_kind = _S_HUNT
+                    self._emit(K_RTCM3)
             else:
                 self.stats.ck_err += 1
             self._skip_kind = _S_HUNT
@@ -741,6 +755,15 @@ class GnssParser:
         self._open = False
         self._done += 1
         self.stats.epochs += 1
+        if self.on_epoch is not None:
+            self.on_epoch()
+
+    def flush(self, t_ms):
+        """Close the open epoch now (end of a capture, or the app's own timeout); returns 0/1."""
+        self._t_ms = t_ms
+        self._done = 0
+        self._close()
+        return self._done
 
     def _set_pos(self, prio, lat_e7, lon_e7, lat_hp, lon_hp, height_mm):
         if prio < self._p_pos or lat_e7 is None or lon_e7 is None:
