@@ -1,0 +1,281 @@
+"""HmiStatus: what the HMI shows, filled by the app once per epoch; also the telemetry status datagram.
+
+The app fills one HmiStatus in place each GNSS epoch; the pages render from it, the indicators derive
+LEDs/buzzer from it, and `encode_status` packs it into the UDP status datagram (docs/TELEMETRY.md)
+that the remote HMI box and the host monitor decode with `decode_status`.
+
+Usage:
+    from tphmi.status import HmiStatus, encode_status, decode_status
+    st = HmiStatus()
+    st.mode = 1; st.xte_m = -1.5; st.rtk = 3
+    pkt = encode_status(st)            # bytes, 80..200 long
+    st2 = decode_status(pkt)           # raises ValueError on garbage
+"""
+import struct
+
+from trackpilot.compat import const
+
+# Modes (same numbers as trackpilot.modes).
+MODE_STANDBY = const(0)
+MODE_AUTO = const(1)
+MODE_ALARM = const(2)
+MODE_ESTOP = const(3)
+MODE_NAMES = ("STANDBY", "AUTO", "ALARM", "E-STOP")
+
+# GNSS quality (same numbers as trackpilot.fix.RTK_*).
+RTK_NAMES = ("none", "single", "float", "fixed")
+
+# Tiller pilot mode as the pilot reports it.
+PM_UNKNOWN = const(0)  # no status from the pilot
+PM_STANDBY = const(1)
+PM_AUTO = const(2)
+PM_OTHER = const(3)  # wind/track/other mode the person chose
+PILOT_MODE_NAMES = ("?", "standby", "auto", "other")
+
+# Alarm bits (same as trackpilot.modes.AL_*), short names for the 16-column display.
+ALARM_BITS = (
+    (1, "takeover"),
+    (2, "gnss"),
+    (4, "gnss timeout"),
+    (8, "pilot hang"),
+    (16, "pilot lost"),
+    (32, "motor link"),
+    (64, "xte"),
+    (128, "arrival"),
+    (256, "e-stop"),
+    (512, "low battery"),
+    (1024, "seatalk"),
+    (2048, "config"),
+)
+AL_TAKEOVER = const(1)
+
+TEXT_MAX = const(60)  # longest alarm_reason / refusal carried in the datagram (bytes, UTF-8)
+STATUS_MAGIC = b"TPS\x01"  # "TPS" + format version 1
+
+# Fixed part of the datagram after the magic; see docs/TELEMETRY.md for the table.
+_FMT = "<HHBBBBHHBBHHHHiiHiHhhHHIHHIHI"
+_FIXED_LEN = 4 + struct.calcsize(_FMT)
+
+# Field list (name, default) in one place: __init__, to_dict and from_dict use it.
+FIELDS = (
+    ("boat_id", 0),  # per-boat id (also in authenticated commands)
+    ("seq", 0),  # status sequence number, wraps at 65536
+    # modes and alarms
+    ("mode", MODE_STANDBY),  # MODE_* above
+    ("degraded", False),  # AUTO holding course without GNSS guidance
+    ("recovering", False),  # AUTO, hung-pilot recovery in progress
+    ("holding", False),  # AUTO after arrival, holding the last heading
+    ("estop_input", False),  # the E-stop input is active right now
+    ("alarms", 0),  # active alarm bits (ALARM_BITS)
+    ("sounding", 0),  # active and not acknowledged (buzzer sounds)
+    ("alarm_reason", ""),  # text of the latest alarm, for the alarms page
+    ("refusal", ""),  # why the last ENGAGE was refused ("" = none; the app clears it)
+    ("cmd_counter", 0),  # counter of the last accepted remote command
+    # GNSS
+    ("rtk", 0),  # 0 none, 1 single, 2 float, 3 fixed (RTK_NAMES)
+    ("pos_valid", False),
+    ("lat_e7", 0),  # 1e-7 deg (ints: never a float)
+    ("lon_e7", 0),
+    ("num_sv", 0),
+    ("h_acc_m", 99.0),  # horizontal accuracy (1 sigma)
+    ("heading_valid", False),
+    ("heading_deg", 0.0),  # true heading of the bow from the dual antenna, 0..360
+    ("heading_acc_deg", 180.0),
+    ("corr_age_s", -1.0),  # age of the RTK corrections, -1 unknown
+    ("sog_mps", 0.0),  # speed over ground
+    # navigation and guidance
+    ("nav_valid", False),  # a track is loaded and the progress below is valid
+    ("xte_m", 0.0),  # cross-track error, positive = boat starboard (right) of the leg
+    ("leg", 0),  # current leg, 0-based (wp[leg] -> wp[leg+1]); shown 1-based
+    ("legs", 0),  # number of legs in the track
+    ("to_wp_m", 0.0),  # distance to the next waypoint
+    ("cmd_valid", False),
+    ("heading_cmd_deg", 0.0),  # guidance heading command, true, 0..360
+    # motor
+    ("rpm_cmd", 0),  # commanded RPM
+    ("rpm", -1),  # RPM reported by the controller, -1 unknown
+    # tiller pilot (ST2000+)
+    ("pilot_ok", False),  # pilot status datagrams arriving
+    ("pilot_mode", PM_UNKNOWN),  # PM_* above
+    ("compass_deg", 0.0),  # the pilot's own compass heading
+    ("locked_deg", 0.0),  # the pilot's locked course
+    ("keystrokes", 0),  # course keystrokes sent since boot
+    ("hang_recoveries", 0),  # Standby-Auto recoveries since boot
+)
+
+
+class HmiStatus:
+    """Everything the HMI shows; see FIELDS for names, units and defaults."""
+
+    def __init__(self):
+        for name, default in FIELDS:
+            setattr(self, name, default)
+
+    def to_dict(self):
+        d = {}
+        for name, _ in FIELDS:
+            d[name] = getattr(self, name)
+        return d
+
+    def update(self, d):
+        """Set fields from a dict (JSON). Unknown keys raise ValueError (no silent typos)."""
+        known = {}
+        for name, default in FIELDS:
+            known[name] = default
+        for k in d:
+            if k not in known:
+                raise ValueError("unknown status field %r" % k)
+            v = d[k]
+            default = known[k]
+            if isinstance(default, bool):
+                v = bool(v)
+            elif isinstance(default, float):
+                v = float(v)
+            elif isinstance(default, int):
+                v = int(v)
+            else:
+                v = str(v)
+            setattr(self, k, v)
+        return self
+
+    def flags(self):
+        return (
+            (1 if self.degraded else 0)
+            | (2 if self.recovering else 0)
+            | (4 if self.holding else 0)
+            | (8 if self.estop_input else 0)
+            | (16 if self.pos_valid else 0)
+            | (32 if self.heading_valid else 0)
+            | (64 if self.cmd_valid else 0)
+            | (128 if self.nav_valid else 0)
+        )
+
+
+def _clamp(v, lo, hi):
+    return lo if v < lo else hi if v > hi else v
+
+
+def _cdeg(a_deg):
+    """Angle to centidegrees 0..35999."""
+    return int(a_deg * 100.0 + 0.5) % 36000
+
+
+def _text(s):
+    b = s.encode() if isinstance(s, str) else bytes(s)
+    return b[:TEXT_MAX]
+
+
+def encode_status(st):
+    """Pack an HmiStatus into the status datagram (bytes)."""
+    ra = _text(st.alarm_reason)
+    rf = _text(st.refusal)
+    corr = st.corr_age_s
+    corr_ds = 65535 if corr < 0 else _clamp(int(corr * 10.0 + 0.5), 0, 65534)
+    fixed = struct.pack(
+        _FMT,
+        st.boat_id & 0xFFFF,
+        st.seq & 0xFFFF,
+        _clamp(st.mode, 0, 255),
+        st.flags(),
+        (1 if st.pilot_ok else 0),
+        _clamp(st.rtk, 0, 255),
+        st.alarms & 0xFFFF,
+        st.sounding & 0xFFFF,
+        _clamp(st.num_sv, 0, 255),
+        _clamp(st.pilot_mode, 0, 255),
+        _clamp(int(st.h_acc_m * 100.0 + 0.5), 0, 65535),
+        _cdeg(st.heading_deg),
+        _clamp(int(st.heading_acc_deg * 100.0 + 0.5), 0, 65535),
+        corr_ds,
+        st.lat_e7,
+        st.lon_e7,
+        _cdeg(st.heading_cmd_deg),
+        _clamp(int(st.xte_m * 100.0 + (0.5 if st.xte_m >= 0 else -0.5)), -2147483647, 2147483647),
+        _clamp(int(st.sog_mps * 100.0 + 0.5), 0, 65535),
+        _clamp(st.rpm_cmd, -32768, 32767),
+        _clamp(st.rpm, -32768, 32767),
+        _clamp(st.leg, 0, 65535),
+        _clamp(st.legs, 0, 65535),
+        _clamp(int(st.to_wp_m * 100.0 + 0.5), 0, 4294967295),
+        _cdeg(st.compass_deg),
+        _cdeg(st.locked_deg),
+        st.keystrokes & 0xFFFFFFFF,
+        _clamp(st.hang_recoveries, 0, 65535),
+        st.cmd_counter & 0xFFFFFFFF,
+    )
+    return STATUS_MAGIC + fixed + bytes((len(ra),)) + ra + bytes((len(rf),)) + rf
+
+
+def decode_status(pkt, st=None):
+    """Unpack a status datagram into `st` (or a new HmiStatus). Raises ValueError on bad input."""
+    n = len(pkt)
+    if n < _FIXED_LEN + 2:
+        raise ValueError("status datagram too short (%d bytes)" % n)
+    if bytes(pkt[:4]) != STATUS_MAGIC:
+        raise ValueError("not a status datagram (magic)")
+    v = struct.unpack(_FMT, bytes(pkt[4:_FIXED_LEN]))
+    i = _FIXED_LEN
+    la = pkt[i]
+    if la > TEXT_MAX or i + 1 + la + 1 > n:
+        raise ValueError("bad alarm_reason length")
+    ra = bytes(pkt[i + 1 : i + 1 + la])
+    i += 1 + la
+    lf = pkt[i]
+    if lf > TEXT_MAX or i + 1 + lf != n:
+        raise ValueError("bad refusal length")
+    rf = bytes(pkt[i + 1 : i + 1 + lf])
+    if st is None:
+        st = HmiStatus()
+    st.boat_id, st.seq, st.mode, flags, flags2, st.rtk = v[0:6]
+    st.alarms, st.sounding, st.num_sv, st.pilot_mode = v[6:10]
+    st.h_acc_m = v[10] / 100.0
+    st.heading_deg = v[11] / 100.0
+    st.heading_acc_deg = v[12] / 100.0
+    st.corr_age_s = -1.0 if v[13] == 65535 else v[13] / 10.0
+    st.lat_e7, st.lon_e7 = v[14], v[15]
+    st.heading_cmd_deg = v[16] / 100.0
+    st.xte_m = v[17] / 100.0
+    st.sog_mps = v[18] / 100.0
+    st.rpm_cmd, st.rpm, st.leg, st.legs = v[19:23]
+    st.to_wp_m = v[23] / 100.0
+    st.compass_deg = v[24] / 100.0
+    st.locked_deg = v[25] / 100.0
+    st.keystrokes, st.hang_recoveries, st.cmd_counter = v[26:29]
+    st.degraded = bool(flags & 1)
+    st.recovering = bool(flags & 2)
+    st.holding = bool(flags & 4)
+    st.estop_input = bool(flags & 8)
+    st.pos_valid = bool(flags & 16)
+    st.heading_valid = bool(flags & 32)
+    st.cmd_valid = bool(flags & 64)
+    st.nav_valid = bool(flags & 128)
+    st.pilot_ok = bool(flags2 & 1)
+    try:
+        st.alarm_reason = ra.decode()
+        st.refusal = rf.decode()
+    except UnicodeError:
+        raise ValueError("status text is not UTF-8")
+    return st
+
+
+def alarm_names(bits):
+    """List of short names of the set alarm bits."""
+    out = []
+    for bit, name in ALARM_BITS:
+        if bits & bit:
+            out.append(name)
+    return out
+
+
+def mode_text(st):
+    """'AUTO', 'AUTO degr', 'AUTO recov', 'AUTO hold', 'STANDBY', 'ALARM', 'E-STOP'."""
+    m = st.mode
+    s = MODE_NAMES[m] if 0 <= m < len(MODE_NAMES) else "mode%d" % m
+    if m == MODE_AUTO:
+        if st.degraded:
+            s = "AUTO degr"
+        elif st.recovering:
+            s = "AUTO recov"
+        elif st.holding:
+            s = "AUTO hold"
+    return s
