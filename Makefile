@@ -21,9 +21,8 @@ $(STAMP): requirements.txt pyproject.toml
 	$(BIN)/pip install --disable-pip-version-check -q --no-deps -e .
 	touch $(STAMP)
 
-f32: $(MICROPYTHON_F32)
-
-$(MICROPYTHON_F32):
+# The single-precision interpreter (cached; rebuilt only when its sources change).
+f32:
 	bash tools/build_micropython_f32.sh
 
 # Every test under the chosen interpreter, then the unix-port tests again on a single-precision build.
