@@ -1,0 +1,460 @@
+"""Raymarine ST2000+ tiller-pilot driver over SeaTalk1: state, commands, takeover and hang handling.
+
+Pure logic: datagrams and t_ms in, keystroke datagrams (through the injected `send`) and events out.
+
+Usage (the shell wires it to a StLink):
+    pilot = St2000(send=link.send, sender_id=1)
+    link.on_datagram = pilot.on_datagram          # every framed non-echo datagram
+    pilot.engage(t_ms)        # sends Auto only now: never at boot, never by itself
+    pilot.steer_to(-4.0, t_ms)  # locked course := pilot compass - 4 deg, by +-10/+-1 keystrokes
+    pilot.standby(t_ms)
+    pilot.poll(t_ms)          # call every ~50 ms: stepping, confirmations, timeouts, recovery
+    ev = pilot.pop_event()    # (name, t_ms, reason) or None; names are the EV_* strings below
+    # on a link EV_FAILED for one of our datagrams: pilot.on_send_failed(dg, t_ms)
+
+Control states (`state`): IDLE (not commanding; the pilot is left as found), ENGAGING, ENGAGED
+(commanding), STANDING_BY, RECOVERING, TAKEN_OVER (a person acted; no keys until engage()),
+FAILED (unrecoverable hang; no keys until engage()).
+
+Keystroke stepping: one key at a time; the next only after the previous one is confirmed (the
+locked course in a later 0x84 equals the course expected after it) or timed out
+(`confirm_timeout_ms`), and at least `key_interval_ms` after the previous key. +-10 is used when
+|error| >= `ten_from_deg` (default 7: at most 3 deg of overshoot; 17 deg takes 5 keys, not 8).
+
+A person taking over: any keystroke that is not our own echo (another sender, or our sender id
+with a key we did not just send), or a mode change we did not ask for, while commanding ->
+EV_TAKEOVER, state TAKEN_OVER.
+
+The hung pilot (ARCHITECTURE.md), while ENGAGED:
+  (a) `hang_unconfirmed_n` keystrokes in a row not confirmed;
+  (b) no 0x84/0x95 status for `status_timeout_ms`;
+  (c) in Auto, |heading - locked course| above `converge_err_deg` for `converge_window_ms` without
+      getting below its best so far minus `converge_progress_deg`; the clock restarts when the
+      locked course moves by `converge_course_deg` (a new command). A slow turn keeps improving;
+      wave yaw only lowers the best once, so a stuck pilot in waves is still found.
+Recovery: Standby (confirmed), pause `recover_pause_ms`, Auto (confirmed), then the course is
+re-stepped to compass + the last relative setpoint; each step is an EV_RECOVER event. After
+`recover_retries` failed attempts: EV_UNRECOVERABLE, state FAILED.
+"""
+from trackpilot.compat import const, ticks_diff, wrap180, wrap360
+from trackpilot import seatalk as st
+
+IDLE = const(0)
+ENGAGING = const(1)
+ENGAGED = const(2)
+STANDING_BY = const(3)
+RECOVERING = const(4)
+TAKEN_OVER = const(5)
+FAILED = const(6)
+STATE_NAMES = ("idle", "engaging", "engaged", "standing_by", "recovering", "taken_over", "failed")
+
+EV_MODE = "MODE"  # the pilot's mode changed (reason says asked/unasked)
+EV_ENGAGED = "ENGAGED"
+EV_ENGAGE_FAILED = "ENGAGE_FAILED"
+EV_STANDBY = "STANDBY"  # standby confirmed
+EV_STANDBY_FAILED = "STANDBY_FAILED"
+EV_TAKEOVER = "TAKEOVER"
+EV_PERSON_KEY = "PERSON_KEY"  # a keystroke that is not ours (also when not commanding)
+EV_KEY_UNCONFIRMED = "KEY_UNCONFIRMED"
+EV_HANG = "HANG"
+EV_RECOVER = "RECOVER"
+EV_RECOVERED = "RECOVERED"
+EV_UNRECOVERABLE = "UNRECOVERABLE"
+EV_STATUS_LOST = "STATUS_LOST"
+EV_STATUS_BACK = "STATUS_BACK"
+
+_R_STANDBY_SEND = const(0)
+_R_STANDBY_WAIT = const(1)
+_R_AUTO_SEND = const(2)
+_R_AUTO_WAIT = const(3)
+
+
+class St2000:
+    def __init__(self, send, sender_id=1, odd_rule=st.ODD_DOTNET, key_interval_ms=250,
+                 confirm_timeout_ms=1500, mode_confirm_ms=2000, mode_resends=2,
+                 status_timeout_ms=3500, hang_unconfirmed_n=3, converge_err_deg=15.0,
+                 converge_window_ms=30000, converge_progress_deg=3.0, converge_course_deg=10.0,
+                 recover_retries=3,
+                 recover_pause_ms=1000, ten_from_deg=7.0, tolerance_deg=0.5, echo_window_ms=1000,
+                 events_len=32):
+        if isinstance(odd_rule, str):
+            odd_rule = st.ODD_KNAUF if odd_rule == "knauf" else st.ODD_DOTNET
+        self.send = send
+        self.sender_id = sender_id
+        self.odd_rule = odd_rule
+        self.key_interval_ms = key_interval_ms
+        self.confirm_timeout_ms = confirm_timeout_ms
+        self.mode_confirm_ms = mode_confirm_ms
+        self.mode_resends = mode_resends
+        self.status_timeout_ms = status_timeout_ms
+        self.hang_unconfirmed_n = hang_unconfirmed_n
+        self.converge_err_deg = converge_err_deg
+        self.converge_window_ms = converge_window_ms
+        self.converge_progress_deg = converge_progress_deg
+        self.converge_course_deg = converge_course_deg
+        self.recover_retries = recover_retries
+        self.recover_pause_ms = recover_pause_ms
+        self.ten_from_deg = ten_from_deg
+        self.tolerance_deg = tolerance_deg
+        self.echo_window_ms = echo_window_ms
+        self._evmax = events_len
+        self._ev = []
+        # what the pilot reports (None until seen)
+        self.mode = None  # seatalk.MODE_*
+        self.mode_raw = None
+        self.heading_deg = None  # the pilot's own compass, whole degrees
+        self.course_deg = None  # locked course (0.5 deg steps)
+        self.rudder_deg = None
+        self.turning_stbd = False
+        self.off_course = False
+        self.setting_mode = False  # last status was 0x95
+        self.last_status_ms = None  # last 0x84/0x95
+        self.last_heading_ms = None  # last 0x84/0x95/0x9C
+        self.status_lost = False
+        # what we command
+        self.state = IDLE
+        self.target_course_deg = None
+        self.last_relative_deg = None
+        self._want = None  # mode asked for (MODE_AUTO / MODE_STANDBY) or None
+        self._want_t = 0
+        self._want_sends = 0
+        self._key = None  # key awaiting confirmation
+        self._key_t = 0
+        self._key_expect = 0.0
+        self._last_key_t = None
+        self._sent_key = None  # last keystroke sent (to recognise our own echo)
+        self._sent_key_t = 0
+        self._unconf = 0
+        self._conv_t0 = None
+        self._conv_best = 0.0
+        self._conv_course = 0.0
+        self._rstage = _R_STANDBY_SEND
+        self._rattempt = 0
+        self._rt = 0
+        # counters (HMI and log)
+        self.keys_sent = 0
+        self.keys_confirmed = 0
+        self.keys_unconfirmed = 0
+        self.send_blocked = 0
+        self.hangs = 0
+        self.recoveries = 0
+        self.recover_attempts = 0
+        self.takeovers = 0
+        self.bad_datagrams = 0
+
+    # ---- events ----
+    def pop_event(self):
+        return self._ev.pop(0) if self._ev else None
+
+    def _event(self, name, t_ms, reason):
+        if len(self._ev) >= self._evmax:
+            self._ev.pop(0)
+        self._ev.append((name, t_ms, reason))
+
+    def status_fresh(self, t_ms):
+        return self.last_status_ms is not None and ticks_diff(t_ms, self.last_status_ms) <= self.status_timeout_ms
+
+    def commanding(self):
+        return self.state == ENGAGING or self.state == ENGAGED or self.state == RECOVERING
+
+    # ---- sending ----
+    def _send_key(self, key, t_ms):
+        if not self.send(st.encode_86(key, self.sender_id)):
+            self.send_blocked += 1
+            return False
+        self.keys_sent += 1
+        self._sent_key = key
+        self._sent_key_t = t_ms
+        self._last_key_t = t_ms
+        return True
+
+    def _ask_mode(self, mode, t_ms):
+        self._want = mode
+        self._want_t = t_ms
+        self._want_sends = 1
+        self._key = None
+        self._send_key(st.KEY_AUTO if mode == st.MODE_AUTO else st.KEY_STANDBY, t_ms)
+
+    def on_send_failed(self, dg, t_ms):
+        """The link gave up on one of our datagrams (bus fault): a keystroke that never went out
+        does not count as unconfirmed by the pilot."""
+        if len(dg) == 4 and dg[0] == 0x86 and self._key is not None and dg[2] == self._key:
+            self._key = None
+
+    # ---- commands ----
+    def engage(self, t_ms):
+        """Put the pilot in Auto (only when asked). False (+ EV_ENGAGE_FAILED) if the pilot is
+        silent or in a mode a person chose (wind, track, calibration)."""
+        if not self.status_fresh(t_ms):
+            self._event(EV_ENGAGE_FAILED, t_ms, "no status from the pilot")
+            return False
+        self._reset_hang()
+        if self.mode == st.MODE_AUTO:
+            self.state = ENGAGED
+            self._want = None
+            self.target_course_deg = None
+            self._event(EV_ENGAGED, t_ms, "pilot already in auto")
+            return True
+        if self.mode != st.MODE_STANDBY:
+            self._event(EV_ENGAGE_FAILED, t_ms, "pilot in %s mode" % st.MODE_NAMES[self.mode])
+            return False
+        self.state = ENGAGING
+        self.target_course_deg = None
+        self._ask_mode(st.MODE_AUTO, t_ms)
+        return True
+
+    def standby(self, t_ms):
+        """Send Standby (always allowed: it frees the tiller), confirm it, re-send bounded."""
+        self.target_course_deg = None
+        self._key = None
+        if self.status_fresh(t_ms) and self.mode == st.MODE_STANDBY:
+            self.state = IDLE
+            self._want = None
+            self._event(EV_STANDBY, t_ms, "pilot already in standby")
+            return
+        self.state = STANDING_BY
+        self._ask_mode(st.MODE_STANDBY, t_ms)
+
+    def let_go(self, t_ms, reason="released"):
+        """Stop commanding without sending anything (leave the pilot as it is)."""
+        self.state = IDLE
+        self._want = None
+        self._key = None
+        self.target_course_deg = None
+        self._event(EV_MODE, t_ms, "driver idle: " + reason)
+
+    def steer_to(self, relative_deg, t_ms):
+        """Set the locked course to (pilot compass + relative_deg), whole degrees. Returns False
+        when not commanding (nothing is sent). ValueError on a non-finite or absurd value."""
+        r = float(relative_deg)
+        if not (-180.0 <= r <= 180.0):  # also false for NaN
+            raise ValueError("relative course %r outside -180..180" % (relative_deg,))
+        self.last_relative_deg = r
+        if self.state != ENGAGED or self.heading_deg is None:
+            return False
+        self.target_course_deg = wrap360(float(int(self.heading_deg + r + 360.5) - 360))
+        return True
+
+    # ---- input ----
+    def on_datagram(self, dg, t_ms):
+        cmd = dg[0] if len(dg) else -1
+        if cmd not in (0x84, 0x95, 0x9C, 0x86):
+            return
+        if not st.plausible(dg):
+            self.bad_datagrams += 1
+            return
+        d = st.decode(dg, self.odd_rule)
+        if cmd == 0x86:
+            self._on_key(d, t_ms)
+            return
+        self.heading_deg = d["heading_deg"]
+        self.rudder_deg = d["rudder_deg"]
+        self.turning_stbd = d["turning_stbd"]
+        self.last_heading_ms = t_ms
+        if cmd == 0x9C:
+            return
+        self.setting_mode = cmd == 0x95
+        self.course_deg = d["course_deg"]
+        self.off_course = d["off_course"]
+        self.mode_raw = d["mode_raw"]
+        self.last_status_ms = t_ms
+        if self.status_lost:
+            self.status_lost = False
+            self._event(EV_STATUS_BACK, t_ms, "pilot status back")
+        old = self.mode
+        self.mode = d["mode"]
+        if old != self.mode:
+            self._on_mode_change(old, t_ms)
+        if self._key is not None and ticks_diff(t_ms, self._key_t) >= 0:
+            if abs(wrap180(self.course_deg - self._key_expect)) < 0.25:
+                self.keys_confirmed += 1
+                self._unconf = 0
+                self._key = None
+
+    def _on_key(self, d, t_ms):
+        if (d["sender"] == self.sender_id and d["key"] == self._sent_key
+                and ticks_diff(t_ms, self._sent_key_t) <= self.echo_window_ms):
+            return  # our own keystroke seen again
+        why = "key %s from sender %d" % (d["key_name"], d["sender"])
+        self._event(EV_PERSON_KEY, t_ms, why)
+        if self.commanding() or self.state == STANDING_BY:
+            self._takeover(t_ms, why)
+
+    def _on_mode_change(self, old, t_ms):
+        new = self.mode
+        asked = self._want is not None and new == self._want
+        self._event(EV_MODE, t_ms, "%s -> %s (%s)" % (
+            st.MODE_NAMES[old] if old is not None else "unknown", st.MODE_NAMES[new],
+            "asked" if asked else "unasked"))
+        if asked:
+            self._mode_confirmed(t_ms)
+        elif self.commanding() and old is not None:
+            # a person (or the pilot itself) changed the mode while we were commanding
+            if not (self.state == RECOVERING and self._rstage == _R_STANDBY_WAIT and new == st.MODE_STANDBY):
+                self._takeover(t_ms, "pilot left %s unasked: now %s" % (
+                    st.MODE_NAMES[old], st.MODE_NAMES[new]))
+
+    def _mode_confirmed(self, t_ms):
+        want = self._want
+        self._want = None
+        if self.state == ENGAGING:
+            self.state = ENGAGED
+            self._reset_hang()
+            self._event(EV_ENGAGED, t_ms, "auto confirmed")
+        elif self.state == STANDING_BY:
+            self.state = IDLE
+            self._event(EV_STANDBY, t_ms, "standby confirmed")
+        elif self.state == RECOVERING:
+            if want == st.MODE_STANDBY:
+                self._rstage = _R_AUTO_SEND
+                self._rt = t_ms
+                self._event(EV_RECOVER, t_ms, "attempt %d: standby confirmed" % (self._rattempt + 1))
+            else:
+                self.state = ENGAGED
+                self.recoveries += 1
+                self._reset_hang()
+                if self.last_relative_deg is not None:
+                    self.steer_to(self.last_relative_deg, t_ms)
+                self._event(EV_RECOVERED, t_ms, "auto confirmed; re-stepping to %s" % (
+                    "none" if self.target_course_deg is None else "%d" % self.target_course_deg))
+
+    def _takeover(self, t_ms, why):
+        self.takeovers += 1
+        self.state = TAKEN_OVER
+        self._want = None
+        self._key = None
+        self.target_course_deg = None
+        self._event(EV_TAKEOVER, t_ms, why)
+
+    def _reset_hang(self):
+        self._unconf = 0
+        self._conv_t0 = None
+        self._key = None
+
+    # ---- time ----
+    def poll(self, t_ms):
+        if self.last_status_ms is not None and not self.status_lost and not self.status_fresh(t_ms):
+            self.status_lost = True
+            self._event(EV_STATUS_LOST, t_ms, "no 0x84 for %d ms" % ticks_diff(t_ms, self.last_status_ms))
+            if self.state == ENGAGED:
+                self._hang(t_ms, "status stopped arriving")
+        s = self.state
+        if s == ENGAGING or s == STANDING_BY:
+            self._poll_want(t_ms)
+        elif s == ENGAGED:
+            self._poll_engaged(t_ms)
+        elif s == RECOVERING:
+            self._poll_recover(t_ms)
+
+    def _want_timed_out(self, t_ms):
+        """True when the asked mode did not come and the re-sends are used up."""
+        if ticks_diff(t_ms, self._want_t) < self.mode_confirm_ms:
+            return False
+        if self._want_sends <= self.mode_resends:
+            self._want_sends += 1
+            self._want_t = t_ms
+            self._send_key(st.KEY_AUTO if self._want == st.MODE_AUTO else st.KEY_STANDBY, t_ms)
+            return False
+        return True
+
+    def _poll_want(self, t_ms):
+        if self._want is None or not self._want_timed_out(t_ms):
+            return
+        name = EV_ENGAGE_FAILED if self.state == ENGAGING else EV_STANDBY_FAILED
+        self._event(name, t_ms, "%s not confirmed after %d sends" % (
+            st.MODE_NAMES[self._want], self._want_sends))
+        self._want = None
+        self.state = IDLE
+
+    def _poll_engaged(self, t_ms):
+        if self.mode != st.MODE_AUTO or self.status_lost:
+            return
+        # (c) heading not converging on the locked course
+        err = abs(wrap180(self.heading_deg - self.course_deg))
+        if err > self.converge_err_deg:
+            if (self._conv_t0 is None or err < self._conv_best - self.converge_progress_deg
+                    or abs(wrap180(self.course_deg - self._conv_course)) >= self.converge_course_deg):
+                # first excess, real progress, or a new course (a command restarts the clock)
+                self._conv_t0 = t_ms
+                self._conv_best = err
+                self._conv_course = self.course_deg
+            elif ticks_diff(t_ms, self._conv_t0) > self.converge_window_ms:
+                self._hang(t_ms, "heading %d not converging on course %s (error %d deg for %d s)" % (
+                    self.heading_deg, self.course_deg, int(err), ticks_diff(t_ms, self._conv_t0) // 1000))
+                return
+        else:
+            self._conv_t0 = None
+        # (a) keystrokes not followed
+        if self._key is not None:
+            if ticks_diff(t_ms, self._key_t) < self.confirm_timeout_ms:
+                return
+            self.keys_unconfirmed += 1
+            self._unconf += 1
+            self._event(EV_KEY_UNCONFIRMED, t_ms, "key %s: course %s, expected %s" % (
+                st.KEY_NAMES[self._key], self.course_deg, self._key_expect))
+            self._key = None
+            if self._unconf >= self.hang_unconfirmed_n:
+                self._hang(t_ms, "%d keystrokes in a row not followed" % self._unconf)
+                return
+        if self.target_course_deg is None:
+            return
+        if self._last_key_t is not None and ticks_diff(t_ms, self._last_key_t) < self.key_interval_ms:
+            return
+        e = wrap180(self.target_course_deg - self.course_deg)
+        if abs(e) <= self.tolerance_deg:
+            return
+        if e >= self.ten_from_deg:
+            key = st.KEY_PLUS_10
+        elif e <= -self.ten_from_deg:
+            key = st.KEY_MINUS_10
+        elif e > 0:
+            key = st.KEY_PLUS_1
+        else:
+            key = st.KEY_MINUS_1
+        if self._send_key(key, t_ms):
+            self._key = key
+            self._key_t = t_ms
+            self._key_expect = wrap360(self.course_deg + st.KEY_DELTA_DEG[key])
+
+    def _hang(self, t_ms, why):
+        self.hangs += 1
+        self._event(EV_HANG, t_ms, why)
+        self.state = RECOVERING
+        self._rattempt = 0
+        self._rstage = _R_STANDBY_SEND
+        self._rt = t_ms
+        self._key = None
+        self._want = None
+
+    def _attempt_failed(self, t_ms, why):
+        self._rattempt += 1
+        self._want = None
+        if self._rattempt >= self.recover_retries:
+            self.state = FAILED
+            self.target_course_deg = None
+            self._event(EV_UNRECOVERABLE, t_ms, "%d recovery attempts failed; last: %s; pilot mode %s" % (
+                self._rattempt, why, "unknown" if self.mode is None else st.MODE_NAMES[self.mode]))
+            return
+        self._event(EV_RECOVER, t_ms, "attempt %d failed: %s" % (self._rattempt, why))
+        self._rstage = _R_STANDBY_SEND
+        self._rt = t_ms
+
+    def _poll_recover(self, t_ms):
+        r = self._rstage
+        if r == _R_STANDBY_SEND:
+            if self._rattempt and ticks_diff(t_ms, self._rt) < self.recover_pause_ms:
+                return
+            self.recover_attempts += 1
+            self._ask_mode(st.MODE_STANDBY, t_ms)
+            self._rstage = _R_STANDBY_WAIT
+            self._event(EV_RECOVER, t_ms, "attempt %d: standby sent" % (self._rattempt + 1))
+            if self.mode == st.MODE_STANDBY and self.status_fresh(t_ms):
+                self._mode_confirmed(t_ms)  # already there (e.g. it dropped out by itself)
+        elif r == _R_AUTO_SEND:
+            if ticks_diff(t_ms, self._rt) < self.recover_pause_ms:
+                return
+            self._ask_mode(st.MODE_AUTO, t_ms)
+            self._rstage = _R_AUTO_WAIT
+            self._event(EV_RECOVER, t_ms, "attempt %d: auto sent" % (self._rattempt + 1))
+        elif self._want_timed_out(t_ms):
+            self._attempt_failed(t_ms, "%s not confirmed" % st.MODE_NAMES[self._want])

@@ -1,0 +1,285 @@
+# ST2000+ driver against a small fake pilot that speaks SeaTalk datagrams.
+import tpassert as T
+from trackpilot import seatalk as st
+from trackpilot import st2000 as sp
+from trackpilot.compat import wrap180
+
+
+class FakePilot:
+    """0x84 at 1 Hz and `key_delay_ms` after each accepted key; heading turns towards the locked
+    course at `rate_dps` in Auto. hang: None, "ignore_keys", "no_steer", "silent"."""
+
+    def __init__(self, heading=100, mode=st.MODE_STANDBY, key_delay_ms=100, rate_dps=5.0):
+        self.heading = float(heading)
+        self.course = float(heading)
+        self.mode = mode
+        self.key_delay_ms = key_delay_ms
+        self.rate_dps = rate_dps
+        self.hang = None
+        self.out = []  # (t_ms, datagram) due
+        self.keys = []  # keys received (sender, key)
+        self.next_status = 0
+
+    def status(self, t):
+        self.out.append((t, st.encode_84(int(self.heading + 0.5) % 360, self.course, self.mode)))
+
+    def receive(self, dg, t):
+        d = st.decode(dg)
+        self.keys.append((d["sender"], d["key"]))
+        if self.hang == "silent":
+            return
+        k = d["key"]
+        if k == st.KEY_AUTO and self.mode == st.MODE_STANDBY:
+            self.mode = st.MODE_AUTO
+            self.course = float(int(self.heading + 0.5) % 360)
+            self.hang = None  # Standby then Auto clears the hang
+        elif k == st.KEY_STANDBY:
+            self.mode = st.MODE_STANDBY
+        elif k in st.KEY_DELTA_DEG and self.mode == st.MODE_AUTO and self.hang != "ignore_keys":
+            self.course = (self.course + st.KEY_DELTA_DEG[k]) % 360
+        else:
+            return
+        self.status(t + self.key_delay_ms)
+
+    def step(self, t, dt_ms):
+        if self.mode == st.MODE_AUTO and self.hang not in ("no_steer", "silent"):
+            e = wrap180(self.course - self.heading)
+            d = self.rate_dps * dt_ms / 1000
+            self.heading = (self.heading + (e if abs(e) < d else (d if e > 0 else -d))) % 360
+        if t >= self.next_status:
+            self.next_status = t + 1000
+            if self.hang != "silent":
+                self.status(t)
+
+
+class Rig:
+    def __init__(self, pilot=None, **kw):
+        self.pilot = pilot or FakePilot()
+        self.sent = []
+        self.sent_t = []
+        self.drv = sp.St2000(send=self._send, **kw)
+        self.t = 0
+        self.events = []
+        self.inflight = []
+
+    def _send(self, dg):
+        self.sent.append(dg)
+        self.sent_t.append(self.t)
+        self.inflight.append((self.t + 10, dg))  # ~4 bytes on the bus
+        return True
+
+    def run(self, ms, dt=10, each=None):
+        end = self.t + ms
+        while self.t < end:
+            p = self.pilot
+            for item in [x for x in self.inflight if x[0] <= self.t]:
+                self.inflight.remove(item)
+                p.receive(item[1], self.t)
+            p.step(self.t, dt)
+            for item in sorted([x for x in p.out if x[0] <= self.t], key=lambda x: x[0]):
+                p.out.remove(item)
+                self.drv.on_datagram(item[1], self.t)
+            if each:
+                each(self)
+            self.drv.poll(self.t)
+            while True:
+                e = self.drv.pop_event()
+                if e is None:
+                    break
+                self.events.append(e)
+            self.t += dt
+
+    def names(self):
+        return [e[0] for e in self.events]
+
+
+def test_leaves_pilot_as_found_and_engages_only_when_told():
+    r = Rig(FakePilot(mode=st.MODE_AUTO))
+    r.run(5000)
+    T.eq(r.sent, [])  # never sends anything by itself, whatever mode it finds
+    T.eq(r.drv.state, sp.IDLE)
+    T.eq(r.drv.mode, st.MODE_AUTO)
+    r = Rig()
+    r.run(3000)
+    T.eq(r.sent, [])
+    T.true(r.drv.engage(r.t))
+    r.run(1000)
+    T.eq(r.sent, [st.encode_86(st.KEY_AUTO, 1)])
+    T.eq(r.drv.state, sp.ENGAGED)
+    T.true(sp.EV_ENGAGED in r.names())
+
+
+def test_engage_refused_without_status():
+    r = Rig(FakePilot())
+    r.pilot.hang = "silent"
+    r.run(2000)
+    T.eq(r.drv.engage(r.t), False)
+    r.run(10)
+    T.eq(r.sent, [])
+    T.eq(r.names(), [sp.EV_ENGAGE_FAILED])
+
+
+def test_steer_to_steps_with_confirmed_keys():
+    r = Rig(FakePilot(heading=100), key_interval_ms=200)
+    r.run(1500)
+    r.drv.engage(r.t)
+    r.run(1000)
+    T.true(r.drv.steer_to(17.0, r.t))
+    T.eq(r.drv.target_course_deg, 117.0)
+    r.run(3000)
+    T.eq(r.pilot.course, 117.0)
+    keys = [dg[2] for dg in r.sent[1:]]
+    # +10 +10 -1 -1 -1 (|e| >= 7 uses +-10): 5 keys
+    T.eq(keys, [st.KEY_PLUS_10, st.KEY_PLUS_10, st.KEY_MINUS_1, st.KEY_MINUS_1, st.KEY_MINUS_1])
+    T.eq(r.drv.keys_confirmed, 5)
+    T.eq(r.drv.keys_unconfirmed, 0)
+    # relative to the pilot's own compass, wrapping through north
+    r.pilot.rate_dps = 0.0
+    r.pilot.heading = 355.0
+    r.run(1100)
+    r.drv.steer_to(-3.0, r.t)
+    T.eq(r.drv.target_course_deg, 352.0)
+    r.run(8000)
+    T.eq(r.pilot.course, 352.0)
+    T.true(sp.EV_TAKEOVER not in r.names())
+
+
+def test_key_rate_is_respected():
+    r = Rig(FakePilot(heading=10, key_delay_ms=20), key_interval_ms=400)
+    r.run(1100)
+    r.drv.engage(r.t)
+    r.run(1000)
+    r.drv.steer_to(6.0, r.t)
+    r.run(4000)
+    T.eq(r.pilot.course, 16.0)
+    T.eq(r.drv.keys_sent, 7)  # Auto, then +1 x 6 (6 < ten_from_deg)
+    gaps = [r.sent_t[i] - r.sent_t[i - 1] for i in range(2, 7)]
+    T.true(min(gaps) >= 400, "key gaps %r" % gaps)
+    T.true(max(gaps) <= 420, "key gaps %r" % gaps)  # confirmed fast, so the interval paces them
+
+
+def test_takeover_by_foreign_key_stops_commanding():
+    r = Rig(FakePilot(heading=50))
+    r.run(1100)
+    r.drv.engage(r.t)
+    r.run(1000)
+    r.drv.steer_to(30, r.t)
+    r.run(300)
+    # a person presses -10 on the pilot head (sender 0)
+    r.drv.on_datagram(st.encode_86(st.KEY_MINUS_10, 0), r.t)
+    n = len(r.sent)
+    r.run(3000)
+    T.eq(r.drv.state, sp.TAKEN_OVER)
+    T.eq(len(r.sent), n)  # nothing more sent
+    T.true(sp.EV_TAKEOVER in r.names())
+    T.eq(r.drv.steer_to(5, r.t), False)
+    # our own echo (same sender, same key) is not a takeover
+    r2 = Rig(FakePilot(heading=50))
+    r2.run(1100)
+    r2.drv.engage(r2.t)
+    r2.drv.on_datagram(st.encode_86(st.KEY_AUTO, 1), r2.t + 5)
+    r2.run(1000)
+    T.eq(r2.drv.state, sp.ENGAGED)
+
+
+def test_takeover_by_unasked_mode_change():
+    r = Rig(FakePilot(heading=50))
+    r.run(1100)
+    r.drv.engage(r.t)
+    r.run(1500)
+    r.pilot.mode = st.MODE_STANDBY  # someone pressed Standby and the key was not seen
+    r.run(1500)
+    T.eq(r.drv.state, sp.TAKEN_OVER)
+    ev = [e for e in r.events if e[0] == sp.EV_TAKEOVER][0]
+    T.true("unasked" in ev[2] or "left auto" in ev[2], ev[2])
+
+
+def test_standby_confirmed_and_resent():
+    r = Rig(FakePilot(heading=50, mode=st.MODE_AUTO))
+    r.run(1100)
+    r.pilot.hang = "silent"  # first Standby lost
+    r.drv.standby(r.t)
+    r.run(500)
+    r.pilot.hang = None
+    r.run(3000)
+    T.eq(r.drv.state, sp.IDLE)
+    T.eq(r.pilot.mode, st.MODE_STANDBY)
+    T.eq([dg[2] for dg in r.sent], [st.KEY_STANDBY, st.KEY_STANDBY])
+    T.true(sp.EV_STANDBY in r.names())
+
+
+def _engaged_rig(**kw):
+    r = Rig(FakePilot(heading=200), **kw)
+    r.run(1100)
+    r.drv.engage(r.t)
+    r.run(1000)
+    return r
+
+
+def test_hang_ignores_keys_recovered():
+    r = _engaged_rig()
+    r.pilot.hang = "ignore_keys"
+    r.drv.steer_to(5, r.t)
+    r.run(12000, each=lambda rr: rr.drv.steer_to(5 - wrap180(rr.pilot.heading - 200), rr.t))
+    names = r.names()
+    T.true(sp.EV_HANG in names, names)
+    T.true(sp.EV_RECOVERED in names, names)
+    T.eq(r.drv.state, sp.ENGAGED)
+    T.eq(r.drv.hangs, 1)
+    T.eq(r.drv.recoveries, 1)
+    T.true("keystrokes" in [e for e in r.events if e[0] == sp.EV_HANG][0][2])
+    r.run(5000, each=lambda rr: rr.drv.steer_to(5 - wrap180(rr.pilot.heading - 200), rr.t))
+    T.near(r.pilot.course, 205.0, 0.6)
+    steps = [e[2] for e in r.events if e[0] == sp.EV_RECOVER]
+    T.eq(steps, ["attempt 1: standby sent", "attempt 1: standby confirmed", "attempt 1: auto sent"])
+
+
+def test_hang_no_steer_detected_by_convergence():
+    r = _engaged_rig(converge_window_ms=20000)
+    r.pilot.hang = "no_steer"
+    r.drv.steer_to(40, r.t)
+    r.run(40000)
+    hang = [e for e in r.events if e[0] == sp.EV_HANG]
+    T.eq(len(hang), 1)
+    T.true("not converging" in hang[0][2], hang[0][2])
+    T.true(sp.EV_RECOVERED in r.names())
+
+
+def test_slow_turn_and_waves_are_not_a_hang():
+    r = _engaged_rig(converge_window_ms=20000)
+    r.pilot.rate_dps = 2.0  # a big course change at 2 deg/s: 90 s of error above 15 deg
+    r.drv.steer_to(150, r.t)
+
+    def waves(rr):  # +-1.5 deg of yaw at 1 deg/s on top of the turn
+        rr.pilot.heading = (rr.pilot.heading + (0.02 if (rr.t // 3000) % 2 else -0.02)) % 360
+
+    r.run(120000, dt=20, each=waves)
+    T.eq(r.drv.hangs, 0, str(r.events))
+    T.eq(r.drv.state, sp.ENGAGED)
+
+
+def test_status_lost_is_unrecoverable_after_bounded_retries():
+    r = _engaged_rig()
+    r.pilot.hang = "silent"
+    r.run(60000)
+    names = r.names()
+    T.true(sp.EV_STATUS_LOST in names)
+    T.eq(names.count(sp.EV_HANG), 1)
+    T.eq(names.count(sp.EV_UNRECOVERABLE), 1)
+    T.eq(r.drv.state, sp.FAILED)
+    T.eq(r.drv.recover_attempts, 3)
+    # standby only, never Auto, while the pilot cannot be seen: 3 attempts x 3 sends
+    T.eq([dg[2] for dg in r.sent[1:]], [st.KEY_STANDBY] * 9)
+    n = len(r.sent)
+    r.run(10000)
+    T.eq(len(r.sent), n)  # FAILED: silent until told to engage again
+
+
+def test_knauf_rule_and_bad_datagrams():
+    d = sp.St2000(send=lambda dg: True, odd_rule="knauf")
+    d.on_datagram(bytes.fromhex("84b61000000000000000"[:18]), 0)
+    T.eq(d.heading_deg, 303)
+    d.on_datagram(b"\x84\x06\x12\x00\x07\x00\x00\x00\x08", 10)  # bad mode byte: rejected
+    T.eq(d.bad_datagrams, 1)
+    T.raises(ValueError, d.steer_to, float("nan"), 0)
+    T.raises(ValueError, d.steer_to, 500, 0)
