@@ -31,6 +31,7 @@ from trackpilot.compat import const, ticks_diff
 from trackpilot.logfmt import LogEncoder
 
 _ENOSPC = const(28)
+_MAX_CONTROL_BYTES = const(400)  # worst-case control frame (rotation is decided before encoding)
 _MAX_EVENT_BYTES = const(250)  # worst-case EVENT frame (text is cut to 200 bytes)
 _EXT = ".tpl"
 
@@ -63,8 +64,6 @@ class Logger:
     low_water_bytes = 512 * 1024  # below this, delete older sessions
     control_reserve_bytes = 64 * 1024  # below this, drop control records, keep events
     event_reserve_bytes = 8 * 1024  # below this, drop everything
-
-    _MAX_CONTROL_BYTES = const(400)  # worst-case control frame (rotation is decided before encoding)
 
     def __init__(self, root, fw_version="", free_fn=None, open_fn=open, key_every=25, **tunables):
         for k in tunables:
@@ -123,8 +122,8 @@ class Logger:
             if self._free_fn:
                 return self._free_fn()
             return _statvfs_free(self.root)
-        except OSError:
-            return 1 << 30  # unknown: let the writes find out (ENOSPC is handled)
+        except Exception:  # no statvfs on this port, or the callback failed: unknown
+            return 1 << 30  # let the writes find out (ENOSPC is handled)
 
     def _delete_oldest(self):
         """Delete the oldest session other than the current one; False if there is none."""
@@ -284,7 +283,7 @@ class Logger:
         if self.level >= 1 or self._f is None:  # no file: the chain must restart in the next one
             self._dropped(False)
             return
-        self._room_for(self._MAX_CONTROL_BYTES)
+        self._room_for(_MAX_CONTROL_BYTES)
         self._queue(self.enc.encode_control(rec), False)
 
     def event(self, kind, text, t_ms):

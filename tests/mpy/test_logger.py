@@ -1,0 +1,117 @@
+# The logger on the MicroPython os module (real files in a temporary directory): sessions,
+# rotation, timed flush, deletion of the oldest session, degradation when flash is full.
+import os
+
+import tpassert as T
+from trackpilot import logfmt as L
+from trackpilot.logger import Logger
+
+
+def _tmpdir():
+    d = "/tmp/tp_logger_%s" % "".join("%02x" % b for b in os.urandom(6))
+    os.mkdir(d)
+    return d
+
+
+def _rmtree(d):
+    for name in os.listdir(d):
+        os.remove(d + "/" + name)
+    os.rmdir(d)
+
+
+def _size(path):
+    return os.stat(path)[6]
+
+
+def _rec(k):
+    r = L.ControlRecord()
+    r.t_ms = 1000 + 200 * k
+    r.lat_e7 = 514950000 + 20 * k
+    r.lon_e7 = 36100000 + 13 * k
+    r.lat_hp = (k * 7) % 199 - 99
+    r.heading_deg = (10.0 + 0.3 * k) % 360.0
+    r.sog_mps = 1.8
+    r.rpm = 700 + k % 5
+    return r
+
+
+def _decode_dir(d):
+    out = []
+    for name in sorted(os.listdir(d)):
+        with open(d + "/" + name, "rb") as f:
+            out.append((name, list(L.iter_records(f.read()))))
+    return out
+
+
+def test_session_rotation_and_flush():
+    d = _tmpdir()
+    try:
+        lg = Logger(d, fw_version="t", max_file_bytes=2500, key_every=10)
+        lg.start(1000, reset_cause="power_on", config_hash="h", track_id="loop")
+        T.eq(lg.path, d + "/0001-00.tpl")
+        for k in range(300):
+            lg.control(_rec(k))
+            if k == 50:
+                lg.event("MODE", "STANDBY->AUTO: test", 1000 + 200 * k)
+            lg.tick(1000 + 200 * k)
+        # Not closed (power loss): everything up to the last flush (<= 1 s ago) is on flash.
+        files = _decode_dir(d)
+        T.true(len(files) >= 4, "rotated: %d files" % len(files))
+        n = 0
+        for name, recs in files:
+            T.true(_size(d + "/" + name) <= 2500, "part bounded")
+            T.eq(recs[0].type, "header")
+            T.eq(recs[0].get("session"), "1")
+            T.eq(len([r for r in recs if r.type == "damage"]), 0)
+            ctl = [r for r in recs if r.type == "control"]
+            T.true(ctl[0].key, "each part starts with a keyframe")
+            for r in ctl:
+                T.eq(r.lat_e7, 514950000 + 20 * n)
+                n += 1
+        T.true(n >= 295, "at most 1 s (5 records) lost: %d" % n)
+        # Next boot: a new session, named after the last one.
+        lg2 = Logger(d, fw_version="t")
+        lg2.start(0, reset_cause="watchdog")
+        T.eq(lg2.session, 2)
+        lg2.close()
+    finally:
+        _rmtree(d)
+
+
+def test_full_flash_degrades_and_deletes_oldest():
+    d = _tmpdir()
+    try:
+        quota = [40000]
+
+        def free():
+            used = 0
+            for name in os.listdir(d):
+                used += _size(d + "/" + name)
+            return quota[0] - used
+
+        for s in (1, 2):  # two old sessions
+            with open(d + "/%04d-00.tpl" % s, "wb") as f:
+                f.write(b"\0" * 10000)
+        lg = Logger(d, free_fn=free, max_file_bytes=8000, low_water_bytes=30000,
+                    control_reserve_bytes=20000, event_reserve_bytes=5000, space_check_ms=1000)
+        lg.start(0)
+        T.eq(lg.session, 3)
+        for k in range(2000):
+            lg.control(_rec(k))
+            if k % 100 == 0:
+                lg.event("INFO", "event %d" % k, 200 * k)
+            lg.tick(200 * k)
+        lg.close()
+        names = os.listdir(d)
+        T.true("0001-00.tpl" not in names and "0002-00.tpl" not in names, "old sessions deleted")
+        T.true(lg.deleted_files == 2)
+        T.true(lg.dropped_control > 0, "control records dropped when full")
+        T.true(free() >= 0)
+        evs = []
+        for name, recs in _decode_dir(d):
+            T.true(name.startswith("0003-"), "current session kept")
+            evs += [r.text for r in recs if r.type == "event"]
+        T.true(len([t for t in evs if t.startswith("flash low")]) >= 1, "degradation logged")
+        T.true("event 1900" in evs, "events still logged after control records stopped")
+    finally:
+        _rmtree(d)
