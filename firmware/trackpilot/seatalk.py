@@ -298,6 +298,9 @@ def decode(dg, odd_rule=ODD_DOTNET):
     if n < 3 or n != length_of(dg[1]):
         raise ValueError("datagram length %d does not match its attribute byte" % n)
     cmd = dg[0]
+    k = KNOWN.get(cmd)
+    if k is not None and (dg[1] & k[0]) != k[1]:
+        raise ValueError("attribute %02x is wrong for type %02x" % (dg[1], cmd))
     if cmd == 0x84 or cmd == 0x95:
         u = dg[1] >> 4
         vw = dg[2]
