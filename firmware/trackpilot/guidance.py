@@ -1,0 +1,391 @@
+"""Guidance laws: from the boat's place on the track to a heading command and a speed command.
+
+Both laws share one output (GuidanceOut) and one call, made once per GNSS epoch after
+progress.update() has placed the boat's reference point on the track with the same fix:
+
+    law = make_law("los")                 # or "seed"; config key guidance.law
+    law.reset()                           # on engage
+    prog.update(ref_lat_e7, ref_lon_e7)
+    out = law.step(fix, prog, dt_s)       # out.heading_cmd_deg (true), out.speed_cmd_mps
+
+The application turns heading_cmd_deg into a course relative to the pilot's compass
+(ARCHITECTURE.md). Conventions (docs/CONTRACTS.md): + angle = to starboard, xte + = boat to
+starboard of the leg. Parameters live in each law's PARAMS table (default, unit, min, max,
+meaning); `law.configure({...})` overrides them with range checks.
+
+SeedLaw ("seed"): the seed report's controller as pinned in BOAT_AND_BENCHMARK.md "The seed law"
+(seed sections 4.6.1, 4.6.2 and Appendix A, with 4.6.1's blend sign).
+LosLaw ("los"): line-of-sight path following with measured crab-angle compensation, an adaptive
+(ALOS, Fossen 2023) crab term with anti-windup, a speed-scheduled lookahead, corners rounded to
+>= 1.5 x the turning radius with preview (curvature feed-forward), and speed planning.
+"""
+import math
+
+from trackpilot.compat import wrap180, wrap360
+
+_RAD = math.pi / 180.0
+_HALF_PI = math.pi * 0.5
+
+
+class GuidanceOut:
+    """One step's result (preallocated, filled in place)."""
+
+    def __init__(self, law=""):
+        self.law = law
+        self.valid = False  # False: no heading (or no position); hold the last command
+        self.heading_cmd_deg = 0.0  # true heading to steer, 0..360
+        self.speed_cmd_mps = 0.0
+        self.rel_cmd_deg = 0.0  # heading_cmd - heading after the clip, -180..180
+        self.clipped = False  # the relative command hit its clip
+        self.ref_course_deg = 0.0  # the course the law aims the boat at before the xte term
+        self.xte_m = 0.0  # against the leg (the track as given)
+        self.path_xte_m = 0.0  # against the planned path (rounded corners); = xte_m for seed
+        self.crab_deg = 0.0  # compensation applied (course over ground - heading), filtered
+        self.integral_deg = 0.0  # adaptive crab estimate (ALOS)
+        self.lookahead_m = 0.0
+        self.preview_deg = 0.0  # turn of the path within the preview distance (feed-forward)
+        self.blend = 0.0  # seed: heading blend factor c
+        self.arc_radius_m = 0.0  # radius of the rounded corner the boat is on, 0 on a straight
+        self.finished = False
+
+
+def _configure(obj, params):
+    for k in params:
+        spec = obj.PARAMS.get(k)
+        if spec is None:
+            raise ValueError("%s: unknown parameter %r" % (obj.name, k))
+        v = float(params[k])
+        if not (spec[2] <= v <= spec[3]):
+            raise ValueError("%s: %s = %r outside %r..%r %s" % (obj.name, k, v, spec[2], spec[3], spec[1]))
+        setattr(obj, k, v)
+
+
+def _defaults(obj):
+    for k in obj.PARAMS:
+        setattr(obj, k, obj.PARAMS[k][0])
+
+
+def _clip(v, lo, hi):
+    return lo if v < lo else (hi if v > hi else v)
+
+
+class SeedLaw:
+    """The seed law, exactly as pinned in BOAT_AND_BENCHMARK.md (the baseline).
+
+    - leg advance: the Progress given (seed 4.6.1; Progress(trk, RULE_SEED) for the plain rule);
+    - reference heading H = H_i + c * wrap(H_(i+1) - H_i), c = clip(1 - d / B, 0, 1), d the
+      distance to the next waypoint, B = 30 m (4.6.1; Appendix A's sign would turn away);
+    - relative setpoint clip(-k_y * y + k_psi * wrap(H - heading), -30, +30) deg (4.6.2);
+    - heading_cmd = heading + relative setpoint; speed = the current leg's (4.6.2)."""
+
+    name = "seed"
+    PARAMS = {
+        # name: (default, unit, min, max, meaning)
+        "blend_m": (30.0, "m", 1.0, 500.0, "B: heading blend distance before the next waypoint"),
+        "k_y_deg_per_m": (3.0, "deg/m", 0.0, 50.0, "cross-track gain"),
+        "k_psi": (1.0, "1", 0.0, 5.0, "heading-error gain"),
+        "clip_deg": (30.0, "deg", 1.0, 90.0, "clip of the relative setpoint"),
+    }
+
+    def __init__(self, **params):
+        _defaults(self)
+        _configure(self, params)
+        self.out = GuidanceOut(self.name)
+
+    def configure(self, params):
+        _configure(self, params)
+
+    def reset(self):
+        self.out.valid = False
+
+    def step(self, fix, prog, dt_s):
+        out = self.out
+        out.finished = prog.finished
+        out.speed_cmd_mps = 0.0 if prog.finished else prog.speed_mps()
+        if not prog.valid or not fix.heading_valid:
+            out.valid = False  # keep the last heading command
+            return out
+        h_i = prog.leg_bearing_deg
+        nxt = prog.next_leg()
+        c = 0.0
+        ref = h_i
+        if nxt is not None and not prog.finished:
+            c = _clip(1.0 - prog.to_wp_m / self.blend_m, 0.0, 1.0)
+            ref = wrap360(h_i + c * wrap180(nxt.bearing_deg - h_i))
+        y = prog.xte_m
+        rel = -self.k_y_deg_per_m * y + self.k_psi * wrap180(ref - fix.heading_deg)
+        out.clipped = rel > self.clip_deg or rel < -self.clip_deg
+        rel = _clip(rel, -self.clip_deg, self.clip_deg)
+        out.rel_cmd_deg = rel
+        out.heading_cmd_deg = wrap360(fix.heading_deg + rel)
+        out.ref_course_deg = ref
+        out.blend = c
+        out.xte_m = y
+        out.path_xte_m = y
+        out.valid = True
+        return out
+
+
+class LosLaw:
+    """Line-of-sight guidance on the planned path (legs with rounded corners).
+
+    course_d = path tangent + preview turn - atan(path_xte / lookahead)
+    heading_cmd = course_d - crab (measured COG - heading, low-pass) - beta_hat (ALOS)
+    beta_hat' = gamma * lookahead / sqrt(lookahead^2 + y^2) * y, frozen while the command is
+    clipped, while far off the path or slow (anti-windup), and clamped.
+    lookahead = clamp(lookahead_gain * U * heading_tc_s, min, max).
+    Corners are arcs of radius round_factor * turn_radius_m, shrunk where legs are too short
+    (never below turn_radius_m / 2; sharper corners and reversals >= 170 deg are not rounded).
+    The planned path is what path_xte_m measures against."""
+
+    name = "los"
+    PARAMS = {
+        "turn_radius_m": (9.0, "m", 2.0, 100.0, "the boat's minimum turning radius"),
+        "round_factor": (1.5, "1", 1.0, 5.0, "corner radius / turning radius"),
+        "lookahead_gain": (2.5, "1", 0.5, 10.0, "lookahead = gain * speed * heading_tc_s"),
+        "heading_tc_s": (1.5, "s", 0.2, 10.0, "time constant of heading response (boat + pilot)"),
+        "lookahead_min_m": (4.0, "m", 1.0, 50.0, "lookahead clamp, low"),
+        "lookahead_max_m": (20.0, "m", 2.0, 200.0, "lookahead clamp, high"),
+        "preview_s": (1.5, "s", 0.0, 10.0, "preview time: path turn this far ahead is fed forward"),
+        "crab_use": (1.0, "1", 0.0, 1.0, "weight of the measured crab angle (0 = off)"),
+        "crab_tc_s": (5.0, "s", 0.2, 120.0, "low-pass time constant of the measured crab"),
+        "crab_min_speed_mps": (0.3, "m/s", 0.0, 5.0, "below this COG is noise: crab is held"),
+        "crab_max_deg": (35.0, "deg", 0.0, 60.0, "clamp of the measured crab"),
+        "alos_gain": (0.004, "rad/(m s)", 0.0, 0.1, "adaptive crab gain gamma (0 = off)"),
+        "alos_max_deg": (20.0, "deg", 0.0, 45.0, "clamp of the adaptive crab estimate"),
+        "alos_zone_m": (5.0, "m", 0.1, 100.0, "adapt only within this distance of the path"),
+        "clip_deg": (45.0, "deg", 5.0, 120.0, "clip of the relative command (heading_cmd - heading)"),
+        "max_turn_rate_dps": (10.0, "deg/s", 1.0, 60.0, "slow down so U / r stays below this (0 = off)"),
+        "speed_tc_s": (5.0, "s", 0.0, 60.0, "surge lag: speed changes start this many seconds early"),
+        "min_speed_mps": (0.3, "m/s", 0.0, 3.0, "floor of the turn slow-down"),
+    }
+
+    def __init__(self, **params):
+        _defaults(self)
+        _configure(self, params)
+        self.out = GuidanceOut(self.name)
+        self._track = None
+        self.reset()
+
+    def configure(self, params):
+        _configure(self, params)
+        self._track = None  # re-plan the corners
+
+    def reset(self):
+        self.crab_f_deg = 0.0
+        self.crab_ok = False
+        self.beta_hat_rad = 0.0
+        self.out.valid = False
+        self.out.clipped = False
+
+    # ---- corner planning (once per track) ----
+    def plan(self, trk):
+        """Corner radii and tangent lengths for a track (index = waypoint)."""
+        legs = trk.legs
+        n = len(trk.waypoints)
+        self._track = trk
+        self._r = [0.0] * n
+        self._t = [0.0] * n
+        self._s = [0.0] * n
+        self._th = [0.0] * n  # |turn| in rad
+        want = self.round_factor * self.turn_radius_m
+        for k in range(1, n - 1):
+            th = legs[k - 1].turn_deg
+            if abs(th) < 1.0 or abs(th) >= 170.0:
+                continue
+            self._s[k] = 1.0 if th > 0 else -1.0
+            self._th[k] = abs(th) * _RAD
+            self._t[k] = want * math.tan(self._th[k] * 0.5)
+        # shrink corners whose tangents overlap on a leg (both ends share the leg in proportion)
+        scale = [1.0] * n
+        for i in range(len(legs)):
+            need = self._t[i] + self._t[i + 1]
+            if need > legs[i].length_m:
+                f = legs[i].length_m / need
+                scale[i] = min(scale[i], f)
+                scale[i + 1] = min(scale[i + 1], f)
+        for k in range(1, n - 1):
+            if self._th[k] == 0.0:
+                continue
+            t = self._t[k] * scale[k]
+            r = t / math.tan(self._th[k] * 0.5)
+            if r < 0.5 * self.turn_radius_m:  # too tight to plan: follow the legs
+                self._th[k] = 0.0
+                self._s[k] = 0.0
+                t = r = 0.0
+            self._t[k] = t
+            self._r[k] = r
+        self._straight = [legs[i].length_m - self._t[i] - self._t[i + 1] for i in range(len(legs))]
+
+    def corner_radius_m(self, k):
+        """Planned radius at waypoint k (0: not rounded)."""
+        return self._r[k]
+
+    def _preview_rad(self, kind, idx, rem, p):
+        """Signed turn (rad) of the path over the next p metres from a point on an arc (kind 0,
+        corner idx, rem rad left) or on a straight (kind 1, leg idx, rem m left)."""
+        total = 0.0
+        n_legs = len(self._straight)
+        for _ in range(6):
+            if p <= 0.0:
+                break
+            if kind == 0:
+                r = self._r[idx]
+                if r > 0.0:
+                    take = min(p, rem * r)
+                    total += self._s[idx] * take / r
+                    p -= take
+                if idx >= n_legs:
+                    break
+                kind = 1
+                rem = self._straight[idx]
+            else:
+                p -= min(p, rem)
+                idx += 1
+                if idx >= n_legs:
+                    break
+                kind = 0
+                rem = self._th[idx]
+        return total
+
+    @staticmethod
+    def _line_xte(a, x, pa, px, phi):
+        """Signed xte from a line through (pa, px) with direction phi (rad, + starboard)."""
+        return -(a - pa) * math.sin(phi) + (x - px) * math.cos(phi)
+
+    def _path(self, prog, p):
+        """(tangent_rad relative to the leg, path_xte_m, preview_rad, arc_radius_m)."""
+        i = prog.leg
+        a = prog.along_m
+        x = prog.xte_m
+        length = prog.leg_length_m
+        k_end = i + 1
+        t_end = self._t[k_end] if k_end < len(self._t) - 1 else 0.0
+        t_start = self._t[i] if i > 0 else 0.0
+        if t_end > 0.0 and a >= length - t_end:
+            k = k_end
+            s = self._s[k]
+            r = self._r[k]
+            th = s * self._th[k]
+            dx = a - (length - t_end)
+            dy = x - s * r
+            tan = wrap180((math.atan2(dy, dx) + s * _HALF_PI) / _RAD) * _RAD
+            if s * tan < 0.0:  # before the arc (cannot be, but keep it defined)
+                return 0.0, x, self._preview_rad(0, k, self._th[k], p), 0.0
+            if s * tan > s * th:  # past the arc, progress still on this leg: next leg's line
+                return th, self._line_xte(a, x, length, 0.0, th), self._preview_rad(1, k, self._straight[k], p), 0.0
+            rem = self._th[k] - s * tan
+            return tan, s * (r - math.sqrt(dx * dx + dy * dy)), self._preview_rad(0, k, rem, p), r
+        if t_start > 0.0 and a <= t_start:
+            k = i
+            s = self._s[k]
+            r = self._r[k]
+            th = s * self._th[k]
+            dx = a - t_start
+            dy = x - s * r
+            tan = wrap180((math.atan2(dy, dx) + s * _HALF_PI) / _RAD) * _RAD
+            if s * tan > 0.0:  # past the arc's end: the straight of this leg
+                return 0.0, x, self._preview_rad(1, i, t_start + self._straight[i] - a, p), 0.0
+            if s * tan < -s * th:  # before the arc: the previous leg's line
+                return -th, self._line_xte(a, x, 0.0, 0.0, -th), self._preview_rad(0, k, self._th[k], p), 0.0
+            return tan, s * (r - math.sqrt(dx * dx + dy * dy)), self._preview_rad(0, k, -s * tan, p), r
+        rem = length - t_end - a
+        if rem < 0.0:
+            rem = 0.0
+        return 0.0, x, self._preview_rad(1, i, rem, p), 0.0
+
+    def step(self, fix, prog, dt_s):
+        out = self.out
+        if self._track is not prog.track:
+            self.plan(prog.track)
+        out.finished = prog.finished
+        leg = prog.track.legs[prog.leg]
+        if fix.vel_valid:
+            u = fix.sog_mps
+        else:
+            u = leg.speed_mps
+        u_eff = u if u > 0.3 else 0.3
+        out.speed_cmd_mps = 0.0 if prog.finished else self._speed(prog, leg)
+        if not prog.valid or not fix.heading_valid:
+            out.valid = False
+            return out
+        # measured crab: course over ground - heading, only when COG means something
+        if fix.vel_valid and fix.sog_mps >= self.crab_min_speed_mps and self.crab_use > 0.0:
+            c = _clip(wrap180(fix.cog_deg - fix.heading_deg), -self.crab_max_deg, self.crab_max_deg)
+            if not self.crab_ok:
+                self.crab_f_deg = c
+                self.crab_ok = True
+            else:
+                self.crab_f_deg += (c - self.crab_f_deg) * (dt_s / (self.crab_tc_s + dt_s))
+        la = _clip(self.lookahead_gain * u_eff * self.heading_tc_s, self.lookahead_min_m, self.lookahead_max_m)
+        tan_rad, y, prev_rad, arc_r = self._path(prog, u_eff * self.preview_s)
+        # adaptive crab (ALOS), anti-windup: frozen while clipped, far off or slow
+        if (self.alos_gain > 0.0 and not out.clipped and abs(y) < self.alos_zone_m
+                and u >= self.crab_min_speed_mps and not prog.finished):
+            self.beta_hat_rad += dt_s * self.alos_gain * la / math.sqrt(la * la + y * y) * y
+            lim = self.alos_max_deg * _RAD
+            self.beta_hat_rad = _clip(self.beta_hat_rad, -lim, lim)
+        course = prog.leg_bearing_deg + (tan_rad + prev_rad - math.atan2(y, la)) / _RAD
+        crab = self.crab_f_deg * self.crab_use if self.crab_ok else 0.0
+        cmd = course - crab - self.beta_hat_rad / _RAD
+        rel = wrap180(cmd - fix.heading_deg)
+        out.clipped = rel > self.clip_deg or rel < -self.clip_deg
+        rel = _clip(rel, -self.clip_deg, self.clip_deg)
+        out.rel_cmd_deg = rel
+        out.heading_cmd_deg = wrap360(fix.heading_deg + rel)
+        out.ref_course_deg = wrap360(prog.leg_bearing_deg + (tan_rad + prev_rad) / _RAD)
+        out.xte_m = prog.xte_m
+        out.path_xte_m = y
+        out.crab_deg = crab
+        out.integral_deg = self.beta_hat_rad / _RAD
+        out.lookahead_m = la
+        out.preview_deg = prev_rad / _RAD
+        out.arc_radius_m = arc_r
+        out.valid = True
+        return out
+
+    def _speed(self, prog, leg):
+        """The leg's speed, eased towards the next leg's before the waypoint (surge lag), and
+        capped so the planned corner's turn rate U / r stays below max_turn_rate_dps."""
+        v = leg.speed_mps
+        nxt = prog.next_leg()
+        if nxt is None:
+            if prog.along_m < self._t[prog.leg]:
+                v = self._turn_cap(v, self._r[prog.leg])
+            return v
+        k = prog.leg + 1
+        t_end = self._t[k]
+        to_turn = prog.remain_m - t_end  # distance to where the corner begins
+        ramp_m = self.speed_tc_s * v
+        v_next = nxt.speed_mps
+        if ramp_m > 0.0 and v_next < v and to_turn < ramp_m:
+            f = to_turn / ramp_m if to_turn > 0.0 else 0.0
+            v = v_next + (v - v_next) * f
+        if to_turn < ramp_m:
+            v = self._turn_cap(v, self._r[k])
+        if prog.along_m < self._t[prog.leg]:  # still on the corner behind (exit half of its arc)
+            v = self._turn_cap(v, self._r[prog.leg])
+        return v
+
+    def _turn_cap(self, v, r):
+        if r > 0.0 and self.max_turn_rate_dps > 0.0:
+            v_turn = self.max_turn_rate_dps * _RAD * r
+            if v_turn < self.min_speed_mps:
+                v_turn = self.min_speed_mps
+            if v > v_turn:
+                v = v_turn
+        return v
+
+
+LAWS = {"seed": SeedLaw, "los": LosLaw}
+
+
+def make_law(name, params=None):
+    """The guidance law named in config guidance.law ("seed" or "los"), with parameter overrides."""
+    cls = LAWS.get(name)
+    if cls is None:
+        raise ValueError("unknown guidance law %r (known: seed, los)" % (name,))
+    law = cls()
+    if params:
+        law.configure(params)
+    return law
