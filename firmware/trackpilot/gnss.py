@@ -215,6 +215,7 @@ class GnssParser:
         self._w_utc = -1
         self._last_itow = -1
         self._last_utc = -1
+        self._utc_off = -1
         self._eoe_seen = False
         self._p_pos = _P_NONE
         self._p_stat = _P_NONE
@@ -597,6 +598,7 @@ class GnssParser:
                 self._emit(K_NAV_EOE)
                 self._eoe_seen = True
                 if self._join(self.eoe.itow_ms, -1):
+                    self._w.sources |= 1 << K_NAV_EOE
                     self._close()
                 return
         elif cls == 0x05 and ln == 2 and mid <= 1:
@@ -696,13 +698,21 @@ class GnssParser:
     def _join(self, itow, utc):
         """Place a message of (itow or -1, utc_ms or -1) into the open epoch, opening or closing
         epochs as needed; False if it belongs to an epoch already closed."""
-        if (itow >= 0 and itow == self._last_itow) or (utc >= 0 and utc == self._last_utc):
+        # the iTOW decides where a message has one (NAV-PVT carries both), else the UTC time
+        if itow >= 0:
+            late = itow == self._last_itow
+        else:
+            late = utc >= 0 and utc == self._last_utc
+        if late:
             self.stats.late += 1
             return False
         w = self._w
         if self._open:
-            if (itow >= 0 and w.itow_ms >= 0 and itow != w.itow_ms) or \
-                    (utc >= 0 and self._w_utc >= 0 and utc != self._w_utc):
+            if itow >= 0 and w.itow_ms >= 0:
+                other = itow != w.itow_ms
+            else:
+                other = utc >= 0 and self._w_utc >= 0 and utc != self._w_utc
+            if other:
                 self._close()
         if not self._open:
             w.clear()
@@ -713,6 +723,8 @@ class GnssParser:
             self._p_pos = self._p_stat = self._p_vel = self._p_hdg = self._p_acc = _P_NONE
         if itow >= 0:
             w.itow_ms = itow
+            if utc < 0 and self._utc_off >= 0:
+                utc = (itow - self._utc_off) % 86400000  # as learnt from NAV-PVT
         if utc >= 0 and self._w_utc < 0:
             self._w_utc = utc
             w.utc_s = utc // 1000
@@ -784,13 +796,14 @@ class GnssParser:
         self._w.pos_valid = valid
         self._w.rtk = rtk if valid else RTK_NONE
 
-    def _set_vel(self, prio, valid, sog_mps, cog_e3):
+    def _set_vel(self, prio, valid, sog_e3, to_mps, cog_e3):
+        # the floats are made only when this source wins (each float is a heap object)
         if prio < self._p_vel:
             return
         self._p_vel = prio
         w = self._w
         w.vel_valid = valid
-        w.sog_mps = sog_mps
+        w.sog_mps = sog_e3 * to_mps
         w.cog_deg = (cog_e3 % 360000) * 0.001
 
     def _pvt_utc(self, r):
@@ -801,7 +814,10 @@ class GnssParser:
         return ms % 86400000
 
     def _apply_pvt(self, r):
-        if not self._join(r.itow_ms, self._pvt_utc(r)):
+        utc = self._pvt_utc(r)
+        if utc >= 0:  # iTOW - UTC (mod one day): lets iTOW-only messages meet NMEA times
+            self._utc_off = (r.itow_ms - utc) % 86400000
+        if not self._join(r.itow_ms, utc):
             return
         w = self._w
         ok = (r.flags & 1) and 2 <= r.fix_type <= 4 and not (r.flags3 & 1)
@@ -815,7 +831,7 @@ class GnssParser:
             self._p_acc = _P_PVT
             w.h_acc_m = r.h_acc_mm * 0.001
         # headMot in 1e-5 deg -> e3 keeps 0.001 deg (int division, no float)
-        self._set_vel(_P_PVT, ok, r.g_speed_mms * 0.001, r.head_mot_e5 // 100)
+        self._set_vel(_P_PVT, ok, r.g_speed_mms, 0.001, r.head_mot_e5 // 100)
         if r.valid & 0x01:
             w.date = (r.day * 100 + r.month) * 100 + r.year % 100
         self._closing(K_NAV_PVT)
@@ -880,7 +896,7 @@ class GnssParser:
         if r.date is not None:
             self._w.date = r.date
         if r.sog_kn_e3 is not None:
-            self._set_vel(_P_RMC, ok and r.cog_e3 is not None, r.sog_kn_e3 * _KN_TO_MPS,
+            self._set_vel(_P_RMC, ok and r.cog_e3 is not None, r.sog_kn_e3, _KN_TO_MPS,
                           r.cog_e3 if r.cog_e3 is not None else 0)
         self._closing(K_RMC)
 
@@ -888,15 +904,12 @@ class GnssParser:
         # VTG carries no time: it joins the open epoch (or opens one)
         if not self._join(-1, -1):
             return
+        ok = r.cog_t_e3 is not None and r.pos_mode != 0x4E
+        cog = r.cog_t_e3 if r.cog_t_e3 is not None else 0
         if r.sog_kmh_e3 is not None:
-            sog = r.sog_kmh_e3 * _KMH_TO_MPS
+            self._set_vel(_P_RMC, ok, r.sog_kmh_e3, _KMH_TO_MPS, cog)
         elif r.sog_kn_e3 is not None:
-            sog = r.sog_kn_e3 * _KN_TO_MPS
-        else:
-            sog = None
-        if sog is not None:
-            ok = r.cog_t_e3 is not None and r.pos_mode != 0x4E
-            self._set_vel(_P_RMC, ok, sog, r.cog_t_e3 if r.cog_t_e3 is not None else 0)
+            self._set_vel(_P_RMC, ok, r.sog_kn_e3, _KN_TO_MPS, cog)
         self._closing(K_VTG)
 
     def _apply_gst(self, r):

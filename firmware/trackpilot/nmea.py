@@ -3,7 +3,7 @@
 Everything works on a preallocated bytearray and index ranges, so parsing a sentence allocates
 nothing: numbers come out as ints (decimals as thousandths, `*_e3`), empty fields as None.
 
-    from trackpilot.nmea import LineFramer, ddmm_to_e7
+    from trackpilot.nmea import LineFramer, parse_ddmm_e7
     fr = LineFramer()
     data = b"$GPHDT,274.07,T*03\\r\\n"
     i = 0
@@ -13,7 +13,8 @@ nothing: numbers come out as ints (decimals as thousandths, `*_e3`), empty field
             break
         f = fr.fields                     # Fields view: f.formatter() == FMT_HDT
         heading_e3 = f.e3(1)              # 274070
-    ddmm_to_e7("4807.038", "N")           # 481173000 (48.1173000 deg), exact, no float
+    parse_ddmm_e7(b"4807.038", 0, 8, ord("N"))   # 481173000 (48.1173000 deg), exact, no float
+(the text API for the same conversion is trackpilot.geo.ddmm_to_e7; both give the same ints)
 """
 from trackpilot.compat import const
 
@@ -277,46 +278,28 @@ def parse_ddmm_e7(buf, a, b, hemi):
     m1 = buf[dot - 1] - 0x30
     if m10 < 0 or m10 > 5 or m1 < 0 or m1 > 9:
         return None
-    # minutes in units of 1e-7 min: at most 599999999 < 2**30
+    # minutes in units of 1e-7 min, truncated: at most 599999999 < 2**30. Digits beyond the
+    # 7th cannot change round(minutes_e7 / 60): floor((m + 30 + r) / 60) == floor((m + 30) / 60)
+    # for an int m and 0 <= r < 1, so this is the exactly rounded value for any length.
     mins = m10 * 10 + m1
     k = 0
-    rnd = 0
     for i in range(dot + 1, b):
         d = buf[i] - 0x30
         if d < 0 or d > 9:
             return None
         if k < 7:
             mins = mins * 10 + d
-        elif k == 7 and d >= 5:
-            rnd = 1
         k += 1
     while k < 7:
         mins *= 10
         k += 1
-    mins += rnd
-    # 1e-7 min -> 1e-7 deg: divide by 60, round half up
+    # 1e-7 min -> 1e-7 deg: divide by 60, round half up (on the magnitude)
     v = (mins + 30) // 60
     if deg > max_deg or (deg == max_deg and v > 0):
         return None
     v += deg * 10000000
     if hemi == 0x53 or hemi == 0x57:
         v = -v
-    return v
-
-
-def ddmm_to_e7(text, hemi):
-    """`ddmm.mmmmmmm` (str or bytes) and `N`/`S`/`E`/`W` -> 1e-7 deg int, without a float.
-
-    Raises ValueError on malformed text."""
-    if isinstance(text, str):
-        text = text.encode()
-    if isinstance(hemi, str):
-        hemi = hemi.encode()
-    if len(hemi) != 1:
-        raise ValueError("hemisphere must be one of N S E W")
-    v = parse_ddmm_e7(text, 0, len(text), hemi[0])
-    if v is None:
-        raise ValueError("bad NMEA ddmm value %r %r" % (text, hemi))
     return v
 
 
