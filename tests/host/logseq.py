@@ -19,8 +19,7 @@ def sailing_records(n, seed=1, t0_ms=(1 << 30) - 60000):
     east = north = 0.0
     course = 45.0
     speed = 1.8
-    legs = [(45.0, 120.0, 2.0), (135.0, 60.0, 1.5), (225.0, 150.0, 2.2), (315.0, 80.0, 1.0),
-            (200.0, 40.0, 0.5), (20.0, 200.0, 2.5)]
+    legs = [(b, length, v) for (b, length), v in zip(LEGS, (2.0, 1.5, 2.2, 1.0, 0.5, 2.5))]
     leg = 0
     leg_left = legs[0][1]
     t_ms = t0_ms
@@ -97,7 +96,7 @@ def sailing_records(n, seed=1, t0_ms=(1 << 30) - 60000):
             compass = round((heading + 2.0 + rnd.gauss(0, 0.5)) % 360.0)
             rudder = round(max(-30, min(30, 0.5 * err + rnd.gauss(0, 2))))
         events = []
-        want = round(r.heading_cmd_deg - heading + compass) % 360
+        want = round(target + 5.0 + 5.0 * math.sin(k / 150.0)) % 360  # cmd on the pilot's compass
         step = (want - locked + 540) % 360 - 180
         if abs(step) >= 2 and k % 2 == 0:  # the driver steps the course in 1 deg keys
             s = 1 if step > 0 else -1
@@ -124,5 +123,50 @@ def sailing_records(n, seed=1, t0_ms=(1 << 30) - 60000):
             alarms ^= 64
             events.append(("ALARM" if alarms else "ALARM_CLEAR", "xte: test"))
         r.alarms = alarms
-        r.mode = 1
+        r.mode = 0 if (k < 25 or 2000 <= k < 2100) else 1
+        if k == 25 or k == 2100:
+            events.append(("MODE", "STANDBY->AUTO: engaged from HMI"))
+        if k == 2000:
+            events.append(("MODE", "AUTO->STANDBY: person pressed a key on the pilot"))
         yield r, events
+
+
+LEGS = ((45.0, 120.0), (135.0, 60.0), (225.0, 150.0), (315.0, 80.0), (200.0, 40.0), (20.0, 200.0))
+
+
+class Wp:
+    def __init__(self, lat_e7, lon_e7, speed_mps, name, radius_m=None):
+        self.lat_e7 = lat_e7
+        self.lon_e7 = lon_e7
+        self.speed_mps = speed_mps
+        self.name = name
+        self.radius_m = radius_m
+
+
+def track_waypoints():
+    """The nominal path of sailing_records as waypoints (first loop)."""
+    east = north = 0.0
+    out = [Wp(LAT0_E7, LON0_E7, 2.0, "start")]
+    for i, (brg, length) in enumerate(LEGS):
+        east += length * math.sin(math.radians(brg))
+        north += length * math.cos(math.radians(brg))
+        out.append(Wp(LAT0_E7 + round(north / M_PER_E7_LAT), LON0_E7 + round(east / M_PER_E7_LON),
+                      1.5, "wp%d" % (i + 1), 3.0 if i == 2 else None))
+    return out
+
+
+def write_log(root, n, seed=1, **logger_kw):
+    """Sail n records into a Logger session under root; returns the Logger."""
+    from trackpilot.logger import Logger
+
+    lg = Logger(root, fw_version="test", **logger_kw)
+    t0 = (1 << 30) - 60000
+    lg.start(t0, reset_cause="power_on", config_hash="0123abcd", track_id="logseq")
+    lg.track(track_waypoints(), "logseq")
+    for r, events in sailing_records(n, seed=seed, t0_ms=t0):
+        lg.control(r)
+        for kind, text in events:
+            lg.event(kind, text, r.t_ms)
+        lg.tick(r.t_ms)
+    lg.close()
+    return lg
