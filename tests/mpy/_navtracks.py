@@ -27,7 +27,10 @@ def csv_from_m(points, header="lon,lat,speed_mps", lat0=LAT0, lon0=LON0):
 
 
 def track_from_m(points, lat0=LAT0, lon0=LON0):
-    return parse_track_csv(csv_from_m(points, lat0=lat0, lon0=lon0))
+    header = "lon,lat,speed_mps"
+    if any(len(p) > 3 for p in points):
+        header += ",name,radius_m"
+    return parse_track_csv(csv_from_m(points, header, lat0, lon0))
 
 
 def pos(east_m, north_m, lat0=LAT0, lon0=LON0):
