@@ -255,7 +255,7 @@ class Pages:
         self.text("TP  %s" % mode_text(st), 0, 11)
         if st.pilot_ok:
             pm = st.pilot_mode
-            self.text("ST  %s" % (PILOT_MODE_NAMES[pm] if 0 <= pm < 4 else "?"), 0, 20)
+            self.text("ST  %s" % (PILOT_MODE_NAMES[pm] if 0 <= pm < len(PILOT_MODE_NAMES) else "?"), 0, 20)
             self.text("compass   %5.1f" % st.compass_deg, 0, 29)
             self.text("locked    %5.1f" % st.locked_deg, 0, 38)
         else:

@@ -25,12 +25,14 @@ MODE_NAMES = ("STANDBY", "AUTO", "ALARM", "E-STOP")
 # GNSS quality (same numbers as trackpilot.fix.RTK_*).
 RTK_NAMES = ("none", "single", "float", "fixed")
 
-# Tiller pilot mode as the pilot reports it.
-PM_UNKNOWN = const(0)  # no status from the pilot
-PM_STANDBY = const(1)
-PM_AUTO = const(2)
-PM_OTHER = const(3)  # wind/track/other mode the person chose
-PILOT_MODE_NAMES = ("?", "standby", "auto", "other")
+# Tiller pilot mode as the pilot reports it: the same codes as trackpilot.seatalk.MODE_* (and the log).
+PM_STANDBY = const(0)
+PM_AUTO = const(1)
+PM_WIND = const(2)
+PM_TRACK = const(3)
+PM_CAL = const(4)
+PM_UNKNOWN = const(5)
+PILOT_MODE_NAMES = ("standby", "auto", "wind", "track", "calibration", "unknown")
 
 # Alarm bits (same as trackpilot.modes.AL_*), short names for the 16-column display.
 ALARM_BITS = (
@@ -96,7 +98,7 @@ FIELDS = (
     ("rpm", -1),  # RPM reported by the controller, -1 unknown
     # tiller pilot (ST2000+)
     ("pilot_ok", False),  # pilot status datagrams arriving
-    ("pilot_mode", PM_UNKNOWN),  # PM_* above
+    ("pilot_mode", PM_UNKNOWN),  # PM_* above (= seatalk.MODE_*)
     ("compass_deg", 0.0),  # the pilot's own compass heading
     ("locked_deg", 0.0),  # the pilot's locked course
     ("keystrokes", 0),  # course keystrokes sent since boot

@@ -1,6 +1,6 @@
 """`trackpilot hmi ...`: preview the HMI pages as PNG, regenerate the reference images.
 
-    trackpilot hmi preview --out DIR [--status FILE.json | --sample NAME] [--scale 4]
+    trackpilot hmi preview --out DIR [--status FILE.json | --sample NAME | --log FILE... [--at S]]
     trackpilot hmi refs [--out tests/data/hmi]      # rewrite the main-page reference images
 
 The pages are rendered by the real HMI code under MicroPython ($MICROPYTHON); the framebuffers come
@@ -75,11 +75,71 @@ def to_pbm(w, h, buf):
     return bytes(out)
 
 
+MODE_AUTO = 1
+REFUSAL_SHOW_S = 5.0  # an engage refusal stays on the page this long (as the app does)
+
+
+def status_from_log(paths, at_s=None):
+    """HmiStatus fields (dict) at `at_s` seconds into a log (default: its last control record).
+
+    From the control record at or before that time, the track record and the events before it.
+    Not in the log: acknowledgements (sounding = all active alarms) and the AUTO sub-states."""
+    from trackpilot_tools.logdecode import decode_files
+
+    from trackpilot import geo
+
+    d = decode_files(paths)
+    if not d.controls:
+        raise ValueError("no control records in the log")
+    rec = d.controls[-1]
+    if at_s is not None:
+        for r in d.controls:
+            if r.t_s > at_s:
+                break
+            rec = r
+    t = rec.t_s
+    st = {
+        "mode": rec.mode, "rtk": rec.rtk, "pos_valid": rec.pos_valid, "lat_e7": rec.lat_e7,
+        "lon_e7": rec.lon_e7, "num_sv": rec.num_sv, "h_acc_m": rec.h_acc_m,
+        "heading_valid": rec.heading_valid, "heading_deg": rec.heading_deg,
+        "heading_acc_deg": rec.heading_acc_deg, "corr_age_s": rec.corr_age_s, "sog_mps": rec.sog_mps,
+        "xte_m": rec.xte_m, "leg": rec.leg, "cmd_valid": rec.mode == MODE_AUTO,
+        "heading_cmd_deg": rec.heading_cmd_deg, "rpm_cmd": rec.rpm_set, "rpm": rec.rpm,
+        "pilot_ok": rec.pilot_mode != 5, "pilot_mode": rec.pilot_mode,
+        "compass_deg": rec.compass_deg, "locked_deg": rec.locked_deg, "keystrokes": rec.keys_sent,
+        "alarms": rec.alarms, "sounding": rec.alarms, "estop_input": bool(rec.alarms & 256),
+    }
+    wps = d.track.waypoints if d.track is not None else []
+    if len(wps) >= 2:
+        st["nav_valid"] = True
+        st["legs"] = len(wps) - 1
+        nxt = wps[min(rec.leg + 1, len(wps) - 1)]
+        st["to_wp_m"] = geo.dist_bearing(rec.lat_e7, rec.lon_e7, nxt.lat_e7, nxt.lon_e7)[0]
+    hangs = 0
+    for e in d.events:
+        if e.t_s > t:
+            break
+        if e.kind == "ALARM":
+            st["alarm_reason"] = e.text
+        elif e.kind == "REFUSED" and t - e.t_s <= REFUSAL_SHOW_S:
+            st["refusal"] = e.text.split(": ", 1)[-1]
+        elif e.kind == "MODE" and "recovering" in e.text:
+            hangs += 1
+    st["hang_recoveries"] = hangs
+    return st
+
+
 def cmd_preview(args):
     status = None
-    if args.status:
-        status = json.loads(Path(args.status).read_text())
-    pages = render(status=status, sample=args.sample, t_ms=args.t_ms, progress=args.progress)
+    try:
+        if args.status:
+            status = json.loads(Path(args.status).read_text())
+        elif args.log:
+            status = status_from_log(args.log, args.at)
+        pages = render(status=status, sample=args.sample, t_ms=args.t_ms, progress=args.progress)
+    except (ValueError, RuntimeError, OSError) as e:
+        print("trackpilot hmi preview: %s" % e, file=sys.stderr)
+        return 2
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     for name, (w, h, buf) in pages.items():
@@ -108,6 +168,8 @@ def add_parser(p):
     g = pv.add_mutually_exclusive_group()
     g.add_argument("--status", help="JSON file with HmiStatus fields (default: a built-in state)")
     g.add_argument("--sample", help="a built-in state from tphmi/samples.py (default auto_right)")
+    g.add_argument("--log", nargs="+", help="log file(s) of one session: the state at --at")
+    pv.add_argument("--at", type=float, help="seconds into the log (default: its end)")
     pv.add_argument("--t-ms", type=int, default=300, help="time for blinking elements (ms)")
     pv.add_argument("--progress", type=float, default=0.0, help="AUTO hold progress 0..1 to draw")
     pv.add_argument("--scale", type=int, default=4, help="pixel scale of the PNG (default 4)")
