@@ -222,6 +222,12 @@ class GnssParser:
         self._p_vel = _P_NONE
         self._p_hdg = _P_NONE
         self._p_acc = _P_NONE
+        self._hacc_01mm = 0
+        self._sog_e3 = 0
+        self._sog_k = 0.001
+        self._cog_e3 = 0
+        self._hdg_e5 = 0
+        self._hdg_acc_e5 = 0
         self.pvt = Record(itow_ms=0, year=0, month=0, day=0, hour=0, min=0, sec=0, valid=0,
                           t_acc_ns=0, nano_ns=0, fix_type=0, flags=0, flags2=0, num_sv=0,
                           lon_e7=0, lat_e7=0, height_mm=0, hmsl_mm=0, h_acc_mm=0, v_acc_mm=0,
@@ -741,6 +747,15 @@ class GnssParser:
         if not self._open:
             return
         w = self._w
+        # the epoch's floats, made once here (5 heap objects at most)
+        if self._p_acc != _P_NONE:
+            w.h_acc_m = self._hacc_01mm * 0.0001
+        if self._p_vel != _P_NONE:
+            w.sog_mps = self._sog_e3 * self._sog_k
+            w.cog_deg = self._cog_e3 * 0.001
+        if self._p_hdg != _P_NONE:
+            w.heading_deg = self._hdg_e5 * 0.00001
+            w.heading_acc_deg = self._hdg_acc_e5 * 0.00001
         f = self.fix
         f.t_ms = w.t_ms
         f.itow_ms = w.itow_ms
@@ -797,14 +812,14 @@ class GnssParser:
         self._w.rtk = rtk if valid else RTK_NONE
 
     def _set_vel(self, prio, valid, sog_e3, to_mps, cog_e3):
-        # the floats are made only when this source wins (each float is a heap object)
+        # kept as ints until the epoch closes: a float is a heap object on MicroPython
         if prio < self._p_vel:
             return
         self._p_vel = prio
-        w = self._w
-        w.vel_valid = valid
-        w.sog_mps = sog_e3 * to_mps
-        w.cog_deg = (cog_e3 % 360000) * 0.001
+        self._w.vel_valid = valid
+        self._sog_e3 = sog_e3
+        self._sog_k = to_mps
+        self._cog_e3 = cog_e3 % 360000
 
     def _pvt_utc(self, r):
         if not r.valid & 0x02:  # validTime
@@ -829,7 +844,7 @@ class GnssParser:
         w.num_sv = r.num_sv
         if _P_PVT >= self._p_acc:
             self._p_acc = _P_PVT
-            w.h_acc_m = r.h_acc_mm * 0.001
+            self._hacc_01mm = r.h_acc_mm * 10
         # headMot in 1e-5 deg -> e3 keeps 0.001 deg (int division, no float)
         self._set_vel(_P_PVT, ok, r.g_speed_mms, 0.001, r.head_mot_e5 // 100)
         if r.valid & 0x01:
@@ -843,11 +858,9 @@ class GnssParser:
         valid = (fl & 0x105) == 0x105  # gnssFixOK, relPosValid, relPosHeadingValid
         if _P_PVT >= self._p_hdg:
             self._p_hdg = _P_PVT
-            w = self._w
-            w.heading_valid = valid
-            h = (r.heading_e5 + self.heading_offset_e5) % 36000000
-            w.heading_deg = h * 0.00001
-            w.heading_acc_deg = r.acc_heading_e5 * 0.00001
+            self._w.heading_valid = valid
+            self._hdg_e5 = (r.heading_e5 + self.heading_offset_e5) % 36000000
+            self._hdg_acc_e5 = r.acc_heading_e5
         self._closing(K_NAV_RELPOSNED)
 
     def _apply_hppos(self, r):
@@ -857,7 +870,7 @@ class GnssParser:
             self._set_pos(_P_HP, r.lat_e7, r.lon_e7, r.lat_hp, r.lon_hp, r.height_mm)
             if _P_HP >= self._p_acc:
                 self._p_acc = _P_HP
-                self._w.h_acc_m = r.h_acc_01mm * 0.0001
+                self._hacc_01mm = r.h_acc_01mm
         self._closing(K_NAV_HPPOSLLH)
 
     def _utc_join(self, utc):
@@ -919,7 +932,7 @@ class GnssParser:
             self._p_acc = _P_GGA
             a = r.sd_lat_e3
             b = r.sd_lon_e3
-            self._w.h_acc_m = ((a * a + b * b) ** 0.5) * 0.001
+            self._hacc_01mm = int(((a * a + b * b) ** 0.5) * 10 + 0.5)
         self._closing(K_GST)
 
     def _apply_heading(self, heading_e3, valid, kind):
@@ -927,9 +940,7 @@ class GnssParser:
             return
         if _P_GGA >= self._p_hdg:
             self._p_hdg = _P_GGA
-            w = self._w
-            w.heading_valid = valid
-            h = (heading_e3 * 100 + self.heading_offset_e5) % 36000000
-            w.heading_deg = h * 0.00001
-            w.heading_acc_deg = 180.0
+            self._w.heading_valid = valid
+            self._hdg_e5 = (heading_e3 * 100 + self.heading_offset_e5) % 36000000
+            self._hdg_acc_e5 = 18000000  # HDT/THS carry no accuracy
         self._closing(kind)
