@@ -1,0 +1,58 @@
+"""Environment presets and the fault list.
+
+A preset is a partial parameter set merged over boat_params.json (see params.merge). Add a preset by
+adding an entry to PRESETS. A fault is given as NAME@T or NAME@T:D (start T seconds into the run,
+lasting D seconds; faults without a duration are instantaneous or last until something clears
+them). FAULTS documents every name; runner.SimRun applies them.
+"""
+
+PRESETS = {
+    "calm": {"water": {"current_mps": 0.0, "wave_yaw_rms_deg": 1.0}, "wind": {"speed_mps": 0.0}},
+    "current": {"water": {"current_mps": 0.2, "current_dir_deg": 120.0, "wave_yaw_rms_deg": 1.5},
+                "wind": {"speed_mps": 0.0}},
+    "wind": {"water": {"current_mps": 0.0, "wave_yaw_rms_deg": 2.0},
+             "wind": {"speed_mps": 5.0, "dir_deg": 240.0, "gust_sd_frac": 0.2}},
+    "gusts": {"water": {"current_mps": 0.05, "wave_yaw_rms_deg": 2.0},
+              "wind": {"speed_mps": 7.0, "dir_deg": 240.0, "gust_sd_frac": 0.4, "gust_tau_s": 4.0}},
+    "rough": {"water": {"current_mps": 0.25, "current_dir_deg": 60.0, "wave_yaw_rms_deg": 3.0},
+              "wind": {"speed_mps": 8.0, "dir_deg": 200.0, "gust_sd_frac": 0.35}},
+}
+
+# name: (needs a duration, description)
+FAULTS = {
+    "rtk_float": (True, "GNSS position RTK float (0.2-0.5 m noise with jumps)"),
+    "rtk_single": (True, "GNSS single fix (1-2 m), no dual-antenna heading"),
+    "heading_loss": (True, "dual-antenna heading invalid (relPosHeadingValid = 0)"),
+    "gnss_dropout": (True, "no GNSS output at all (bridge); then single, float, fixed"),
+    "pilot_hang_steer": (False, "ST2000+ keeps talking and taking keys, the rudder stops tracking"),
+    "pilot_hang_keys": (False, "ST2000+ ignores course keystrokes (Standby/Auto still work)"),
+    "pilot_key_standby": (False, "a person presses Standby on the ST2000+"),
+    "pilot_key_auto": (False, "a person presses Auto on the ST2000+"),
+    "pilot_key_minus10": (False, "a person presses -10 on the ST2000+"),
+    "pilot_key_plus10": (False, "a person presses +10 on the ST2000+"),
+    "pilot_key_minus1": (False, "a person presses -1 on the ST2000+"),
+    "pilot_key_plus1": (False, "a person presses +1 on the ST2000+"),
+    "pilot_silent": (True, "the ST2000+ sends no status (it still steers and takes keys)"),
+    "st_noise": (True, "SeaTalk noise: 3 % of characters corrupted, 1 % dropped"),
+    "st_tx_lost": (True, "lost echo: the firmware's SeaTalk bytes never reach the bus"),
+    "st_rx_lost": (True, "the firmware's SeaTalk receiver hears nothing"),
+    "st_other_talker": (True, "another instrument sends wind datagrams without waiting for idle (collisions)"),
+    "motor_link_loss": (True, "the motor controller stops replying and ignores setpoints"),
+    "estop": (True, "E-stop input active"),
+    "reset": (False, "the firmware restarts (process restarted with the same data dir)"),
+    "button_standby": (False, "STANDBY pressed on the HMI"),
+    "button_engage": (False, "ENGAGE pressed on the HMI"),
+}
+
+
+def parse_fault(text):
+    """'name@t[:d]' -> (name, t_s, d_s or None)."""
+    name, sep, when = text.partition("@")
+    if not sep or name not in FAULTS:
+        raise ValueError("fault %r: expected NAME@T[:D] with NAME one of %s" % (text, ", ".join(sorted(FAULTS))))
+    t, _, d = when.partition(":")
+    t_s = float(t)
+    d_s = float(d) if d else None
+    if FAULTS[name][0] and d_s is None:
+        raise ValueError("fault %r needs a duration: %s@T:D" % (text, name))
+    return name, t_s, d_s
