@@ -304,12 +304,13 @@ class LogEncoder:
         self._prev2 = [0] * n
         self._cur = [0] * n
         self._since_key = key_every  # first control record is a keyframe
-        self._buf = bytearray(3 + self._mask_len + 10 * n + 2)
+        self._buf = bytearray(4 + self._mask_len + 10 * n + 2)
         self._mv = memoryview(self._buf)
         self._ebuf = bytearray(3 + 5 + 1 + 32 + _MAX_TEXT + 2)
         self._emv = memoryview(self._ebuf)
         self.records = 0
         self.keyframes = 0
+        self._seq = 0  # control record counter (mod 256): a lost whole record is detected
         self._flags_i = -1
         for i in range(n):
             if fields[i][0] == "flags":
@@ -368,7 +369,9 @@ class LogEncoder:
         prev2 = self._prev2
         fields = self.fields
         n = self._n
-        i = 3
+        self._seq = (self._seq + 1) & 0xFF
+        buf[3] = self._seq
+        i = 4
         if self._since_key >= self.key_every:
             typ = T_KEY
             for k in range(n):
@@ -381,8 +384,8 @@ class LogEncoder:
             typ = T_DELTA
             mlen = self._mask_len
             for k in range(mlen):
-                buf[3 + k] = 0
-            i = 3 + mlen
+                buf[4 + k] = 0
+            i = 4 + mlen
             for k in range(n):
                 coding = fields[k][3]
                 mod = fields[k][4]
@@ -395,7 +398,7 @@ class LogEncoder:
                     d = v
                 d = _wrap(d, mod)
                 if d:
-                    buf[3 + (k >> 3)] |= 1 << (k & 7)
+                    buf[4 + (k >> 3)] |= 1 << (k & 7)
                     i = _put_sv(buf, i, d)
                 prev2[k] = prev[k]
                 prev[k] = v
@@ -547,6 +550,7 @@ class _Chain:
         self.mask_len = (n + 7) // 8
         self.prev = [0] * n
         self.prev2 = [0] * n
+        self.seq = -1
         self.valid = False
 
     def decode(self, typ, data, s, e, offset):
@@ -555,6 +559,10 @@ class _Chain:
         prev = self.prev
         prev2 = self.prev2
         vals = [0] * n
+        if s >= e:
+            raise IndexError("empty control record")
+        seq = data[s]
+        s += 1
         if typ == T_KEY:
             i = s
             for k in range(n):
@@ -563,7 +571,8 @@ class _Chain:
                 prev2[k] = vals[k]
                 prev[k] = vals[k]
         else:
-            if not self.valid:
+            if not self.valid or seq != (self.seq + 1) & 0xFF:
+                self.valid = False  # a record is missing: wait for the next keyframe
                 return None
             i = s + self.mask_len
             if i > e:
@@ -589,6 +598,7 @@ class _Chain:
         if i != e:
             raise IndexError("control payload length mismatch")
         self.valid = True
+        self.seq = seq
         rec = ControlRecord()
         rec.key = typ == T_KEY
         rec.offset = offset
