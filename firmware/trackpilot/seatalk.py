@@ -293,7 +293,7 @@ def encode_85(xte_nm=None, bearing_deg=None, bearing_true=True, dist_nm=None):
 
 def decode(dg, odd_rule=ODD_DOTNET):
     """Decode one complete datagram into a dict with "cmd" (int), "name" and its fields.
-    Unknown types give name "unknown"; a malformed one raises ValueError."""
+    Types the codec does not decode give name "not_decoded"; a malformed one raises ValueError."""
     n = len(dg)
     if n < 3 or n != length_of(dg[1]):
         raise ValueError("datagram length %d does not match its attribute byte" % n)
@@ -348,7 +348,7 @@ def decode(dg, odd_rule=ODD_DOTNET):
             d = (dg[5] << 4) | (dg[4] >> 4)
             out["dist_nm"] = d / 100 if f & 0x10 else d / 10
         return out
-    return {"cmd": cmd, "name": "unknown"}
+    return {"cmd": cmd, "name": "not_decoded"}
 
 
 # ---- receive framer for 8-bit data ----------------------------------------------------------------
@@ -365,8 +365,9 @@ class Framer:
     its first byte and the rest is scanned again, so the framer finds the next real start; unknown
     types are framed by their length nibble, but only while the framer is in sync (after an idle
     gap, a reset or a datagram that passed): after a rejected byte only a known type can start a
-    datagram, so garbage cannot be taken for a long unknown datagram that swallows good ones
-    (accept_unknown=False never accepts unknown types).
+    datagram, so garbage cannot be taken for a long unknown datagram that swallows good ones, and
+    an unknown-type datagram that contains a known type's command and attribute bytes is dropped in
+    favour of the known one (accept_unknown=False never accepts unknown types).
     Completed datagrams wait in a bounded queue (`depth`); when it is full the oldest is dropped
     and counted. Nothing grows: the buffers are allocated here once.
     """
@@ -475,6 +476,12 @@ class Framer:
         if n >= 3 and n == 3 + (buf[1] & 0x0F):
             if not plausible(buf, n):
                 return True
+            if buf[0] not in KNOWN:
+                # an unknown type that hides the start of a known one: prefer the known one
+                for p in range(1, n - 1):
+                    k = KNOWN.get(buf[p])
+                    if k is not None and (buf[p + 1] & k[0]) == k[1]:
+                        return True
             self._emit(n)
             self._n = 0
             self._synced = True

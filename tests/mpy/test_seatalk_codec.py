@@ -172,7 +172,7 @@ def test_bad_input_is_a_clear_error():
     T.raises(ValueError, st.encode_9c, 10, 200)
     T.raises(ValueError, st.encode_11, 200)
     T.raises(ValueError, st.encode_86, 300)
-    T.eq(st.decode(h("a8 53 80 00 00 d3"))["name"], "unknown")
+    T.eq(st.decode(h("a8 53 80 00 00 d3"))["name"], "not_decoded")
 
 
 def _frame_all(fr, data, t0=0, dt=0):
