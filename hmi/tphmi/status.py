@@ -281,3 +281,67 @@ def mode_text(st):
         elif st.holding:
             s = "AUTO hold"
     return s
+
+
+def _num(v, default):
+    return default if v is None else v
+
+
+def status_from_app(app, t_ms, st=None):
+    """Fill `st` (or a new HmiStatus) from the running application (trackpilot.app.App).
+
+    Reads only attributes, defensively (getattr), so the HMI keeps working while the app evolves:
+    app.mm (mode machine), app.fix, app.progress, app.track, app.heading_cmd_deg, app.rpm_cmd,
+    app.motor.rpm, app.pilot (ST2000+ driver), app.refusal, app.alarm_reason, app.w (wiring)."""
+    if st is None:
+        st = HmiStatus()
+    mm = app.mm
+    st.mode = mm.mode
+    st.degraded = bool(getattr(mm, "degraded", False))
+    st.recovering = bool(getattr(mm, "recovering", False))
+    st.holding = bool(getattr(mm, "holding", False))
+    st.alarms = mm.alarms
+    st.sounding = mm.sounding() if hasattr(mm, "sounding") else mm.alarms
+    st.alarm_reason = getattr(app, "alarm_reason", "") or ""
+    st.refusal = getattr(app, "refusal", "") or ""
+    w = getattr(app, "w", None)
+    st.estop_input = bool(w.estop_active()) if w is not None and hasattr(w, "estop_active") else False
+    fix = getattr(app, "fix", None)
+    if fix is not None:
+        st.pos_valid = bool(fix.pos_valid)
+        st.rtk = fix.rtk
+        st.lat_e7 = fix.lat_e7
+        st.lon_e7 = fix.lon_e7
+        st.num_sv = fix.num_sv
+        st.h_acc_m = fix.h_acc_m
+        st.heading_valid = bool(fix.heading_valid)
+        st.heading_deg = fix.heading_deg
+        st.heading_acc_deg = fix.heading_acc_deg
+        st.sog_mps = fix.sog_mps if fix.vel_valid else 0.0
+    age = w.correction_age_s(t_ms) if w is not None and hasattr(w, "correction_age_s") else None
+    st.corr_age_s = -1.0 if age is None else float(age)
+    prog = getattr(app, "progress", None)
+    st.nav_valid = prog is not None
+    if prog is not None:
+        st.xte_m = prog.xte_m
+        st.leg = prog.leg
+        st.to_wp_m = prog.to_wp_m
+        tr = getattr(app, "track", None)
+        st.legs = len(tr.waypoints) - 1 if tr is not None else 0
+    cmd = getattr(app, "heading_cmd_deg", None)
+    st.cmd_valid = cmd is not None and st.mode == MODE_AUTO
+    st.heading_cmd_deg = _num(cmd, 0.0)
+    st.rpm_cmd = int(getattr(app, "rpm_cmd", 0) or 0)
+    motor = getattr(app, "motor", None)
+    rpm = getattr(motor, "rpm", None) if motor is not None else None
+    st.rpm = -1 if rpm is None else int(rpm)
+    pilot = getattr(app, "pilot", None)
+    if pilot is not None:
+        st.pilot_ok = bool(pilot.status_fresh(t_ms)) if hasattr(pilot, "status_fresh") else False
+        m = getattr(pilot, "mode", None)
+        st.pilot_mode = PM_UNKNOWN if m is None else m
+        st.compass_deg = float(_num(getattr(pilot, "heading_deg", None), 0.0))
+        st.locked_deg = float(_num(getattr(pilot, "course_deg", None), 0.0))
+        st.keystrokes = getattr(pilot, "keys_sent", 0)
+        st.hang_recoveries = getattr(pilot, "recoveries", 0)
+    return st
