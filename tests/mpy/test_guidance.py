@@ -1,0 +1,238 @@
+# guidance.py under MicroPython: both laws' signs, on-line output, blend/arc continuity,
+# clipping, anti-windup, speed planning, and closed loops with a kinematic boat in a current.
+import math
+from array import array
+
+import tpassert as t
+from _navtracks import Boat, make_fix, track_from_m
+from trackpilot.guidance import LosLaw, SeedLaw, make_law
+from trackpilot.progress import Progress
+
+
+def _corner():  # north 100 m, then east 100 m
+    return track_from_m([(0, 0, 2.0), (0, 100, 1.5), (100, 100, 1.0)])
+
+
+def _step(law, prog, fix, dt_s=0.2):
+    prog.update(fix.lat_e7, fix.lon_e7, fix.lat_hp, fix.lon_hp)
+    return law.step(fix, prog, dt_s)
+
+
+def _diff(a, b):
+    return (a - b + 180.0) % 360.0 - 180.0
+
+
+def test_on_the_line_command_is_leg_heading():
+    for law in (SeedLaw(), LosLaw()):
+        prog = Progress(_corner())
+        out = _step(law, prog, make_fix(0.0, 40.0, 0.0))
+        t.true(out.valid)
+        t.near(_diff(out.heading_cmd_deg, 0.0), 0.0, 0.01, law.name)
+        t.near(out.rel_cmd_deg, 0.0, 0.01, law.name)
+        t.eq(out.speed_cmd_mps, 2.0)
+        t.eq(out.clipped, False)
+
+
+def test_signs():
+    # boat 2 m to starboard, on the leg's heading: both steer to port
+    for law in (SeedLaw(), LosLaw()):
+        out = _step(law, Progress(_corner()), make_fix(2.0, 40.0, 0.0))
+        t.near(out.xte_m, 2.0, 0.01)
+        t.true(out.rel_cmd_deg < -1.0, "%s rel %r" % (law.name, out.rel_cmd_deg))
+    out = _step(SeedLaw(), Progress(_corner()), make_fix(2.0, 40.0, 0.0))
+    t.near(out.rel_cmd_deg, -6.0, 0.02)  # -k_y * y, k_y = 3 deg/m
+    # on the line, heading 10 deg to starboard of the leg: back to the leg's heading
+    out = _step(SeedLaw(), Progress(_corner()), make_fix(0.0, 40.0, 10.0))
+    t.near(out.rel_cmd_deg, -10.0, 0.01)
+    t.near(_diff(out.heading_cmd_deg, 0.0), 0.0, 0.01)
+    # LOS: boat 2 m to port -> starboard, atan(2 / lookahead)
+    law = LosLaw(alos_gain=0.0)
+    out = _step(law, Progress(_corner()), make_fix(-2.0, 40.0, 0.0, sog_mps=2.0))
+    t.near(out.lookahead_m, 2.5 * 2.0 * 1.5, 1e-4)
+    t.near(out.rel_cmd_deg, math.degrees(math.atan(2.0 / 7.5)), 0.02)
+    # crab: course over ground 5 deg to starboard of the heading -> steer 5 deg to port
+    law = LosLaw(alos_gain=0.0)
+    out = _step(law, Progress(_corner()), make_fix(0.0, 40.0, 0.0, cog_deg=5.0))
+    t.near(out.crab_deg, 5.0, 1e-4)
+    t.near(_diff(out.heading_cmd_deg, 0.0), -5.0, 0.01)
+
+
+def test_clipping():
+    out = _step(SeedLaw(), Progress(_corner()), make_fix(20.0, 40.0, 0.0))
+    t.eq((out.clipped, out.rel_cmd_deg), (True, -30.0))
+    t.near(out.heading_cmd_deg, 330.0, 1e-4)
+    out = _step(SeedLaw(), Progress(_corner()), make_fix(0.0, 40.0, 170.0))
+    t.eq((out.clipped, out.rel_cmd_deg), (True, -30.0))  # wrap(0 - 170) = -170: to port, clipped
+    law = LosLaw()
+    out = _step(law, Progress(_corner()), make_fix(-100.0, 40.0, 0.0))
+    t.eq((out.clipped, out.rel_cmd_deg), (True, 45.0))
+    law = LosLaw(clip_deg=20.0)
+    out = _step(law, Progress(_corner()), make_fix(0.0, 40.0, 90.0))
+    t.eq((out.clipped, out.rel_cmd_deg), (True, -20.0))
+
+
+def test_seed_blend_continuous():
+    law = SeedLaw()
+    prog = Progress(_corner())
+    last = None
+    n = 0.0
+    while n <= 100.0:
+        out = _step(law, prog, make_fix(0.0, n, 0.0))
+        if n < 69.9:
+            t.near(out.ref_course_deg, 0.0, 1e-3)
+        if last is not None:
+            t.true(abs(_diff(out.ref_course_deg, last)) <= 1.51, "jump at n=%r" % n)
+        last = out.ref_course_deg
+        if n == 99.5:
+            t.near(out.blend, 1.0 - 0.5 / 30.0, 1e-3)
+        n += 0.5
+    t.near(out.ref_course_deg, 90.0, 0.01)  # at the waypoint: the next leg's heading
+    out = _step(law, Progress(_corner()), make_fix(0.5, 85.0, 0.0))  # 15 m before: c = 0.5
+    t.near(out.blend, 0.5, 0.01)
+    t.near(out.ref_course_deg, 45.0, 0.3)
+
+
+def test_los_arc_continuity_and_preview():
+    law = LosLaw()
+    trk = _corner()
+    prog = Progress(trk)
+    law.plan(trk)
+    r = law.corner_radius_m(1)
+    t.near(r, 13.5, 1e-3)  # 1.5 x 9 m
+    # before the arc the command already turns (preview) and the path xte is the leg's
+    out = _step(law, prog, make_fix(0.0, 86.5 - 1.0, 0.0, sog_mps=1.5))
+    t.true(out.preview_deg > 1.0, "preview %r" % out.preview_deg)
+    t.true(_diff(out.heading_cmd_deg, 0.0) > 1.0)
+    last = None
+    for k in range(0, 91):
+        phi = math.radians(k)
+        e = 13.5 - 13.5 * math.cos(phi)
+        n = 86.5 + 13.5 * math.sin(phi)
+        out = _step(law, prog, make_fix(e, n, float(k), sog_mps=1.5))
+        t.near(out.path_xte_m, 0.0, 0.02, "k=%d" % k)
+        t.near(out.arc_radius_m if 0 < k < 90 else r, r, 1e-3)
+        if last is not None:
+            t.true(abs(_diff(out.heading_cmd_deg, last)) < 1.6, "jump at %d deg" % k)
+        last = out.heading_cmd_deg
+    t.eq(prog.leg, 1)  # the leg switched somewhere on the arc without a jump
+    # against the track as given, the arc's middle is R (1 - cos 45) off
+    out = _step(law, prog, make_fix(13.5 - 13.5 * 0.7071068, 86.5 + 13.5 * 0.7071068, 45.0))
+    t.near(abs(out.xte_m), 13.5 * (1 - 0.7071068), 0.03)
+
+
+def test_u_turn_plan_fits_the_short_leg():
+    trk = track_from_m([(0, 0, 2.0), (0, 200, 1.5), (20, 200, 1.5), (20, 0, 1.5)])
+    law = LosLaw()
+    law.plan(trk)
+    t.near(law.corner_radius_m(1), 10.0, 0.01)
+    t.near(law.corner_radius_m(2), 10.0, 0.01)
+    # a reversal on one waypoint is not rounded
+    law.plan(track_from_m([(0, 0, 2.0), (0, 100, 1.0), (0, 0, 1.0)]))
+    t.eq(law.corner_radius_m(1), 0.0)
+
+
+def _closed_loop(law, seconds, cur_e_mps=0.3, u_mps=1.0, start_e=0.0, dt_s=0.2, watch=None):
+    trk = track_from_m([(0, 0, u_mps), (0, 1000, u_mps)])
+    prog = Progress(trk)
+    boat = Boat(start_e, 0.0, 0.0, u_mps, cur_e_mps)
+    fix = boat.step(0.0, 0.0)
+    law.reset()
+    n = int(seconds / dt_s)
+    # an array, not a list: a list keeps one boxed float per step alive, scattered over the
+    # heap, and after 1000 steps no 8 KB block was left free (measured with mem_info)
+    xs = array("f", bytes(4 * n))
+    for i in range(n):
+        out = _step(law, prog, fix, dt_s)
+        if watch:
+            watch(out)
+        xs[i] = out.xte_m
+        fix = boat.step(out.heading_cmd_deg, dt_s)
+    return xs
+
+
+def test_closed_loop_cross_current():
+    beta_deg = math.degrees(math.asin(0.3))  # 17.46 deg at 1 m/s in 0.3 m/s
+    xs = _closed_loop(SeedLaw(), 200.0)
+    tail = xs[-250:]
+    # the seed law keeps the predicted steady offset beta / k_y = 5.82 m
+    t.near(sum(tail) / len(tail), beta_deg / 3.0, 0.2)
+    t.true(max(tail) - min(tail) < 0.1)
+    # LOS with the measured crab angle converges
+    xs = _closed_loop(LosLaw(), 150.0)
+    t.true(max(abs(x) for x in xs[-400:]) < 0.2, "los tail %r" % max(abs(x) for x in xs[-400:]))
+    # ...and without it, the adaptive (ALOS) term alone also converges, more slowly
+    xs = _closed_loop(LosLaw(crab_use=0.0), 400.0)
+    t.true(max(abs(x) for x in xs[-250:]) < 0.2, "alos tail %r" % max(abs(x) for x in xs[-250:]))
+    # crab only (no adaptation)
+    xs = _closed_loop(LosLaw(alos_gain=0.0), 150.0)
+    t.true(max(abs(x) for x in xs[-400:]) < 0.2)
+
+
+class _Windup:
+    def __init__(self):
+        self.prev_clipped = False
+        self.prev_int = 0.0
+        self.n_clipped = 0
+        self.moved_while_clipped = 0
+
+    def __call__(self, out):
+        if self.prev_clipped:
+            self.n_clipped += 1
+            if out.integral_deg != self.prev_int:
+                self.moved_while_clipped += 1
+        self.prev_clipped = out.clipped
+        self.prev_int = out.integral_deg
+
+
+def test_anti_windup_while_clipped():
+    law = LosLaw(crab_use=0.0, alos_zone_m=100.0)
+    w = _Windup()
+    xs = _closed_loop(law, 150.0, start_e=40.0, watch=w)
+    t.eq(w.moved_while_clipped, 0)
+    t.true(w.n_clipped > 10, "never clipped")
+    t.true(abs(w.prev_int) > 5.0, "adapted to the current: %r" % w.prev_int)
+    t.true(abs(xs[-1]) < 1.0, "converging: %r" % xs[-1])
+
+
+def test_speed_planning():
+    # slowing into a 0.5 m/s leg starts speed_tc_s * v before the corner; turn rate cap
+    trk = track_from_m([(0, 0, 3.0), (0, 200, 0.5), (100, 200, 0.5)])
+    law = LosLaw()
+    prog = Progress(trk)
+    out = _step(law, prog, make_fix(0.0, 100.0, 0.0, sog_mps=3.0))
+    t.eq(out.speed_cmd_mps, 3.0)
+    out = _step(law, prog, make_fix(0.0, 200.0 - 13.5 - 7.5, 0.0, sog_mps=3.0))
+    t.near(out.speed_cmd_mps, 0.5 + 2.5 * 0.5, 0.01)  # halfway along the 15 m ramp
+    # a fast 90 deg corner: U / r <= 10 deg/s -> 13.5 m * 0.1745 = 2.36 m/s
+    trk = track_from_m([(0, 0, 3.0), (0, 200, 3.0), (100, 200, 3.0)])
+    prog = Progress(trk)
+    out = _step(law, prog, make_fix(0.0, 190.0, 0.0, sog_mps=3.0))
+    t.near(out.speed_cmd_mps, math.radians(10.0) * 13.5, 0.01)
+    seed = SeedLaw()
+    out = _step(seed, Progress(trk), make_fix(0.0, 190.0, 0.0))
+    t.eq(out.speed_cmd_mps, 3.0)  # the seed: the current leg's speed, nothing else
+
+
+def test_invalid_heading_and_finish():
+    for law in (SeedLaw(), LosLaw()):
+        prog = Progress(_corner())
+        out = _step(law, prog, make_fix(3.0, 40.0, 0.0))
+        cmd = out.heading_cmd_deg
+        f = make_fix(0.0, 50.0, 90.0)
+        f.heading_valid = False
+        out = _step(law, prog, f)
+        t.eq((out.valid, out.heading_cmd_deg), (False, cmd))
+        out = _step(law, prog, make_fix(100.0, 101.0, 90.0))
+        t.eq((out.finished, out.speed_cmd_mps), (True, 0.0))
+        t.eq(prog.finish_reason, "arrived")
+
+
+def test_configuration():
+    law = make_law("los", {"turn_radius_m": 8.0, "clip_deg": 30})
+    t.eq((law.turn_radius_m, law.clip_deg), (8.0, 30.0))
+    t.eq(make_law("seed").k_y_deg_per_m, 3.0)
+    t.raises(ValueError, make_law, "pid")
+    t.raises(ValueError, make_law, "los", {"nope": 1})
+    t.raises(ValueError, make_law, "los", {"clip_deg": 500})
+    for name, (default, unit, lo, hi, doc) in LosLaw.PARAMS.items():
+        t.true(lo <= default <= hi and unit and doc, name)
