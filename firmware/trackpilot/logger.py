@@ -90,6 +90,8 @@ class Logger:
         self._now_ms = 0
         self._due_ms = 0
         self._space_due_ms = 0
+        self._retry_ms = 0  # after ENOSPC, no new file before this time
+        self._full = False
         self.level = 0  # 0 normal, 1 dropping control records, 2 dropping everything
         # Counters (the HMI and telemetry may show them).
         self.dropped_control = 0
@@ -145,6 +147,8 @@ class Logger:
         """Delete old sessions until `need_bytes` more fit above the low-water mark, then set the
         degradation level from what is free. Returns the level."""
         self._space_due_ms = (self._now_ms + self.space_check_ms) & 0x3FFFFFFF
+        if self._full and ticks_diff(self._now_ms, self._retry_ms) < 0:
+            return self.level  # a write just failed with ENOSPC: trust that, not statvfs
         free = self.free_bytes() - need_bytes
         while free < self.low_water_bytes and self._delete_oldest():
             free = self.free_bytes() - need_bytes
@@ -215,7 +219,14 @@ class Logger:
             track_id=h.get("track_id", ""), reset_cause=h.get("reset_cause", ""),
             t0_ms=self._now_ms & 0x3FFFFFFF, utc=h.get("utc", ""), session=self.session,
             part=self.part, **extra)
-        if self._write(head) and self._track:
+        if not self._write(head):
+            try:  # a file without a whole header holds nothing: remove it, reuse the number
+                os.remove(self.path)
+            except OSError:
+                pass
+            self.part -= 1
+            return
+        if self._track:
             self._write(self._track)
 
     def _close_file(self):
@@ -246,7 +257,10 @@ class Logger:
             self.write_errors += 1
             self.last_error = "write %s: %s" % (self.path, e)
             if e.args and e.args[0] == _ENOSPC:
+                # Back off: statvfs may still say there is room (littlefs counts lazily).
                 self.level = 2
+                self._full = True
+                self._retry_ms = (self._now_ms + self.space_check_ms) & 0x3FFFFFFF
             # The file may now end in a partial record (the decoder skips it); the next control
             # record must not depend on records that were lost.
             self.enc.force_keyframe()
@@ -315,6 +329,13 @@ class Logger:
     def flush(self):
         """Write the buffer to flash and sync the file now."""
         if self._f is None and self.session and not self._opening:
+            if self._full and ticks_diff(self._now_ms, self._retry_ms) < 0:
+                self._n = 0  # the buffer holds only records from before the failure
+                self._dropped(False, self._buf_control)
+                self._dropped(True, self._buf_events)
+                self._buf_control = self._buf_events = 0
+                return
+            self._full = False
             self._next_part()  # after a failed open or write
         n = self._n
         if not n:
