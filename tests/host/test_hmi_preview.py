@@ -126,3 +126,19 @@ def test_command_tag_is_standard_hmac_sha256():
     assert pkt[:4] == b"TPC\x01"
     assert struct.unpack("<HIB", pkt[4:11]) == (7, 41, 3)
     assert pkt[11:] == hmac.new(key, pkt[:11], hashlib.sha256).digest()[:16]
+
+
+def test_status_offsets_match_docs_telemetry():
+    """A few offsets from docs/TELEMETRY.md, read straight from the bytes."""
+    from tphmi.samples import sample
+    from tphmi.status import encode_status
+
+    st = sample("alarm_gnss")
+    b = encode_status(st)
+    assert len(b) == 70 + len(st.alarm_reason.encode()) + len(st.refusal.encode())
+    assert struct.unpack_from("<H", b, 4)[0] == st.boat_id
+    assert b[8] == st.mode and b[11] == st.rtk
+    assert struct.unpack_from("<ii", b, 26) == (st.lat_e7, st.lon_e7)
+    assert struct.unpack_from("<i", b, 36)[0] == round(st.xte_m * 100)
+    assert struct.unpack_from("<I", b, 64)[0] == st.cmd_counter
+    assert b[68] == len(st.alarm_reason.encode())
