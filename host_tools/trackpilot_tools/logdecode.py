@@ -177,6 +177,10 @@ def summarize(records):
             elif r.type == "header":
                 d.headers.append(r)
     c = d.controls
+    if c and not hasattr(c[0], "t_s"):  # raw iter_records output: build the time axis here
+        c[0].t_s = 0.0
+        for i in range(1, len(c)):
+            c[i].t_s = c[i - 1].t_s + ticks_diff(c[i].t_ms, c[i - 1].t_ms) / 1000.0
     auto = [r for r in c if r.mode == AUTO and r.pos_valid]
     xs = [r.xte_m for r in (auto or c)]
     keys = 0
@@ -195,8 +199,8 @@ def summarize(records):
     auto_s = 0.0
     for i in range(1, len(c)):
         if c[i - 1].mode == AUTO:
-            auto_s += c[i].t_s - c[i - 1].t_s if hasattr(c[i], "t_s") else 0.0
-    duration = (c[-1].t_s - c[0].t_s) if c and hasattr(c[0], "t_s") else 0.0
+            auto_s += c[i].t_s - c[i - 1].t_s
+    duration = (c[-1].t_s - c[0].t_s) if c else 0.0
     return {
         "duration_s": round(duration, 3),
         "control_records": len(c),
