@@ -57,8 +57,9 @@ class SimRun:
     def __init__(self, track_path, out_dir, seed=1, law="los", scenario="calm", faults=(),
                  params=None, param_file=None, overrides=None, duration_s=None, realtime=False,
                  realtime_speed=1.0, fw_config=None, reengage_s=0.0, quiet=True,
-                 stop_after_finish_s=5.0, max_xte_stop_m=80.0):
+                 stop_after_finish_s=5.0, max_xte_stop_m=80.0, fw_script=None):
         self.track_path = Path(track_path)
+        self.fw_script = Path(fw_script) if fw_script else SIM_MAIN
         self.out = Path(out_dir)
         self.seed = seed
         self.law = law
@@ -317,7 +318,7 @@ class SimRun:
                 "--data", self.data_dir, "--seed", str(self.seed), "--reset-cause", reset_cause]
         if self.quiet:
             args.append("--quiet")
-        self.proc = popen_script(SIM_MAIN, args, stderr=self.stderr_f, cwd=str(ROOT))
+        self.proc = popen_script(self.fw_script, args, stderr=self.stderr_f, cwd=str(ROOT))
         self.fw_t0_ms = t_ms
         self.fw_last_ms = t_ms
         rep = P.read_report(self.proc.stdout)
