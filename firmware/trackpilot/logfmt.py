@@ -254,7 +254,7 @@ def _get_sv(data, i, end):
 
 
 def _quant(x, scale):
-    """Value in units -> stored int (round half away from zero; same on float32 and double)."""
+    """Value in units -> stored int (nearest, ties to even on MicroPython and CPython alike)."""
     if x is None:
         return 0
     if scale == 1:
@@ -263,8 +263,7 @@ def _quant(x, scale):
         except (ValueError, OverflowError):
             return 0
     try:
-        y = x * scale
-        return int(y + 0.5) if y >= 0 else -int(0.5 - y)
+        return round(x * scale)  # half to even, as CPython; one float temporary
     except (ValueError, OverflowError):  # nan, inf: logged as 0 rather than stopping the log
         return 0
 
