@@ -300,17 +300,17 @@ class Pages:
             for line in lines:
                 fb.text(line, 0, y, 0)
                 y += 9
-        if engage_progress > 0.0:  # AUTO being held: label and a filling bar underneath
-            fb.fill_rect(0, 53, self.width, 11, 0)
-            fb.hline(0, 53, self.width, 1)
-            fb.text("HOLD AUTO...", 16, 54, 1)
-            fb.fill_rect(0, 62, int(self.width * engage_progress), 2, 1)
+        if engage_progress > 0.0:  # AUTO being held: label and a filling bar in the last row
+            fb.fill_rect(0, 55, self.width, 9, 0)
+            fb.text("HOLD AUTO", 0, 56, 1)
+            fb.rect(76, 56, self.width - 76, 8, 1)
+            fb.fill_rect(78, 58, int((self.width - 80) * engage_progress), 4, 1)
         if self._msg:
             if ticks_diff(t_ms, self._msg_t0) >= self._msg_ms:
                 self._msg = ""
             else:
-                fb.fill_rect(0, 54, self.width, 10, 1)
-                fb.text(self._msg, (self.width - 8 * len(self._msg)) // 2, 55, 0)
+                fb.fill_rect(0, 55, self.width, 9, 1)
+                fb.text(self._msg, (self.width - 8 * len(self._msg)) // 2, 56, 0)
 
     def link_lost(self, age_s, last=None):
         """Remote box: no status for age_s seconds (last: the last HmiStatus received or None)."""

@@ -140,12 +140,14 @@ def test_hold_progress_and_message():
         return
     buf, fb, p = _setup()
     p.render(_st("auto_right", mode=0), 0, 0, 0.5)
-    T.true(text_at(buf, "HOLD AUTO...", 16, 54))
-    T.eq(count(buf, 0, 62, 64, 64), 128, "left half of the progress bar")
-    T.eq(count(buf, 66, 62, 128, 64), 0)
+    T.true(text_at(buf, "HOLD AUTO", 0, 56))
+    T.true(text_at(buf, " 4.5km/h 1185rpm", 0, 47), "the row above stays intact")
+    T.eq(count(buf, 78, 58, 102, 62), 96, "left half of the progress bar filled")
+    T.eq(count(buf, 103, 58, 126, 62), 0, "right half empty")
     p.message("hold longer", 1000, 1500)
     p.render(_st("auto_right"), 0, 2000)
-    T.true(text_at(buf, "hold longer", 20, 55, inverted=True))
+    T.true(text_at(buf, "hold longer", 20, 56, inverted=True))
+    T.true(text_at(buf, " 4.5km/h 1185rpm", 0, 47), "the row above stays intact")
     p.render(_st("auto_right"), 0, 2600)
     T.true(text_at(buf, "LEG 3/11", 0, 56), "message gone after its time")
 
