@@ -489,7 +489,8 @@ class SimRun:
             "outputs": self.output_log, "events": self.events + [
                 (t / 1000.0, "pilot", txt) for t, txt in self.pilot.log],
             "bus": dict(self.bus.stats), "pilot_keys_accepted": self.pilot.keys_accepted,
-            "pilot_keys_ignored": self.pilot.keys_ignored, "pilot_bad_datagrams": self.pilot.bad_datagrams,
+            "pilot_keys_ignored": self.pilot.keys_ignored,
+            "pilot_keys_by_sender": dict(self.pilot.keys_by_sender), "pilot_bad_datagrams": self.pilot.bad_datagrams,
             "gnss_epochs": self.f9p.epochs, "telemetry_bytes": self.telemetry_bytes,
             "truth_xte": self.truth_xte, "geom": self.geom, "out": str(self.out),
         }

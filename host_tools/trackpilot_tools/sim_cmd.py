@@ -1,0 +1,85 @@
+"""`trackpilot sim TRACK`: sail a track with the real firmware (MicroPython unix port) against the
+simulated boat, and write an output folder: the firmware's log, truth.csv, summary.json/.md, plots."""
+import json
+import sys
+from pathlib import Path
+
+
+def add_parser(p):
+    from .sim import scenarios
+
+    p.add_argument("track", help="track CSV (tracks/README.md)")
+    p.add_argument("--law", choices=("seed", "los"), default="los", help="guidance law (default los)")
+    p.add_argument("--scenario", default="calm", choices=sorted(scenarios.PRESETS),
+                   help="environment preset (default calm)")
+    p.add_argument("--current-mps", type=float, help="constant current speed")
+    p.add_argument("--current-dir-deg", type=float, help="direction the current flows TO (true)")
+    p.add_argument("--wind-mps", type=float, help="mean wind speed")
+    p.add_argument("--wind-dir-deg", type=float, help="direction the wind blows FROM (true)")
+    p.add_argument("--gust-frac", type=float, help="gust s.d. as a fraction of the mean wind")
+    p.add_argument("--wave-yaw-deg", type=float, help="wave yaw RMS (deg)")
+    p.add_argument("--fault", action="append", default=[], metavar="NAME@T[:D]",
+                   help="inject a fault at T s for D s; names: " + ", ".join(sorted(scenarios.FAULTS)))
+    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--out", default="sim_out", help="output folder (default sim_out)")
+    p.add_argument("--realtime", action="store_true", help="pace the run to the wall clock")
+    p.add_argument("--realtime-speed", type=float, default=1.0, help="with --realtime: x real time")
+    p.add_argument("--duration-s", type=float, help="time limit (default 1.5 x the track's time + 120 s)")
+    p.add_argument("--params", help="JSON file merged over the simulator's boat_params.json")
+    p.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
+                   help="override one simulator parameter, e.g. pilot.deadband_deg=3")
+    p.add_argument("--fw-set", action="append", default=[], metavar="SECTION.KEY=VALUE",
+                   help="override one firmware configuration setting, e.g. guidance.seed_k_y_deg_per_m=2")
+    p.add_argument("--start-offset-m", type=float, help="start this far to starboard of the first leg")
+    p.add_argument("--reengage-s", type=float, default=0.0,
+                   help="press ENGAGE again this long after the firmware leaves AUTO (0: never)")
+    p.add_argument("--no-plots", action="store_true")
+    p.add_argument("--verbose", action="store_true", help="firmware diagnostics into firmware_stderr.txt")
+    p.set_defaults(func=run)
+
+
+def build_overrides(args):
+    from .sim import params as pm
+
+    over = pm.parse_set(args.set)
+    def put(sec, key, val):
+        if val is not None:
+            over.setdefault(sec, {})[key] = val
+    put("water", "current_mps", args.current_mps)
+    put("water", "current_dir_deg", args.current_dir_deg)
+    put("wind", "speed_mps", args.wind_mps)
+    put("wind", "dir_deg", args.wind_dir_deg)
+    put("wind", "gust_sd_frac", args.gust_frac)
+    put("water", "wave_yaw_rms_deg", args.wave_yaw_deg)
+    put("sim", "start_offset_m", args.start_offset_m)
+    return over
+
+
+def run(args):
+    from .sim import params as pm
+    from .sim import report
+    from .sim.runner import SimRun
+
+    out = Path(args.out)
+    run_ = SimRun(args.track, out, seed=args.seed, law=args.law, scenario=args.scenario,
+                  faults=args.fault, param_file=args.params, overrides=build_overrides(args),
+                  duration_s=args.duration_s, realtime=args.realtime,
+                  realtime_speed=args.realtime_speed, fw_config=pm.parse_set(args.fw_set),
+                  reengage_s=args.reengage_s, quiet=not args.verbose)
+    res = run_.run()
+    meta = {"track": str(args.track), "law": args.law, "scenario": args.scenario, "seed": args.seed,
+            "faults": args.fault}
+    summ = report.summarize_run(res, meta)
+    report.write_summary(summ, out)
+    plots = []
+    if not args.no_plots:
+        plots = report.plot_truth(str(out), res["geom"]) + report.plot_firmware_log(str(out))
+    print((out / "summary.md").read_text())
+    print("output folder: %s" % out)
+    print("  firmware log: %s" % ", ".join(summ["firmware_log_files"]) if summ["firmware_log_files"]
+          else "  firmware log: none written")
+    print("  truth trace:  %s" % (out / "truth.csv"))
+    print("  summary:      %s, %s" % (out / "summary.json", out / "summary.md"))
+    for p in plots:
+        print("  plot:         %s" % p)
+    return 0 if res["failure"] is None else 1
