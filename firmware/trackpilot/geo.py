@@ -40,8 +40,6 @@ _ONE_MINUS_E2 = 1.0 - _E2
 _DEG = math.pi / 180.0
 _E9_RAD = math.pi / 180.0 * 1e-9  # radians per 1e-9 deg
 # Longitudes as ints: 360 deg in 1e-9 deg is a big int; only used to wrap a difference.
-_HALF_TURN_E9 = 180 * 1000000000
-_TURN_E9 = 360 * 1000000000
 _HALF_TURN_E7 = 1800000000
 _TURN_E7 = 3600000000
 _MAX_LAT_E7 = const(900000000)
@@ -136,14 +134,15 @@ def move_hp(lat_e7, lon_e7, east_m, north_m, lat_hp=0, lon_hp=0):
         n = north_m * cg - east_m * sg
         dlat = n / m / _E9_RAD
         dlon = e / nc / _E9_RAD
-    lat_e9 = lat_e7 * 100 + lat_hp + int(round(dlat))
-    lon_e9 = lon_e7 * 100 + lon_hp + int(round(dlon))
-    if lon_e9 > _HALF_TURN_E9:
-        lon_e9 -= _TURN_E9
-    elif lon_e9 <= -_HALF_TURN_E9:
-        lon_e9 += _TURN_E9
-    la, lah = split_e9(lat_e9)
-    lo, loh = split_e9(lon_e9)
+    # add in the small domain (hp + offset), so no big int is formed on the ESP32
+    q, lah = split_e9(lat_hp + int(round(dlat)))
+    la = lat_e7 + q
+    q, loh = split_e9(lon_hp + int(round(dlon)))
+    lo = lon_e7 + q
+    if lo > _HALF_TURN_E7 or (lo == _HALF_TURN_E7 and loh > 0):
+        lo -= _TURN_E7
+    elif lo < -_HALF_TURN_E7 or (lo == -_HALF_TURN_E7 and loh <= 0):
+        lo += _TURN_E7
     if la > _MAX_LAT_E7 or la < -_MAX_LAT_E7:
         raise ValueError("move_e7 crosses a pole")
     return la, lo, lah, loh
