@@ -191,6 +191,16 @@ class MotorLink:
         self.frames_sent = 0
         self.replies = 0
 
+    @classmethod
+    def from_config(cls, motor_cfg):
+        """Build from the config's "motor" section (frame, keepalive_ms, reply_timeout_ms,
+        expect_replies, rpm_max, low_battery_v); reverse is allowed down to -rpm_max."""
+        rpm_max = motor_cfg.get("rpm_max", 1500)
+        return cls(fmt=motor_cfg.get("frame", "ascii"), keepalive_ms=motor_cfg.get("keepalive_ms", 200),
+                   reply_timeout_ms=motor_cfg.get("reply_timeout_ms", 1500),
+                   expect_replies=motor_cfg.get("expect_replies", True), rpm_min=-rpm_max,
+                   rpm_max=rpm_max, low_batt_mv=int(motor_cfg.get("low_battery_v", 44.0) * 1000))
+
     @property
     def parse_errors(self):
         return self._parser.errors

@@ -494,7 +494,10 @@ class Framer:
             self._qn -= 1
             self.queue_overflow += 1
         i = (self._qhead + self._qn) % depth
-        self._q[i][:n] = self._buf[:n]
+        q = self._q[i]
+        buf = self._buf
+        for j in range(n):  # a loop, not a slice: no allocation on the receive path
+            q[j] = buf[j]
         self._ql[i] = n
         self._qt[i] = self._t
         self._qn += 1

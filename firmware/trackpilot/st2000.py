@@ -142,6 +142,20 @@ class St2000:
         self.takeovers = 0
         self.bad_datagrams = 0
 
+    @classmethod
+    def from_config(cls, send, pilot_cfg):
+        """Build from the config's "pilot" section; keys this driver does not use are skipped
+        (e.g. deadband_deg, a setting of the pilot itself)."""
+        names = ("sender_id", "odd_rule", "key_interval_ms", "confirm_timeout_ms", "mode_confirm_ms",
+                 "mode_resends", "status_timeout_ms", "hang_unconfirmed_n", "converge_err_deg",
+                 "converge_window_ms", "converge_progress_deg", "converge_course_deg",
+                 "recover_retries", "recover_pause_ms", "ten_from_deg", "tolerance_deg")
+        kw = {}
+        for k in names:
+            if k in pilot_cfg:
+                kw[k] = pilot_cfg[k]
+        return cls(send, **kw)
+
     # ---- events ----
     def pop_event(self):
         return self._ev.pop(0) if self._ev else None

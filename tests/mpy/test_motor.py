@@ -168,3 +168,15 @@ def test_pwm_mapping():
     T.eq(m.rpm_to_duty_u16(0, 1000, 6554, 58982), 6554)  # 0.5..4.5 V of a 5 V range
     T.eq(m.rpm_to_duty_u16(1000, 1000, 6554, 58982), 58982)
     T.raises(ValueError, m.rpm_to_duty_u16, 10, 0)
+
+
+def test_from_config_section():
+    link = m.MotorLink.from_config({"frame": "binary", "keepalive_ms": 100, "reply_timeout_ms": 900,
+                                    "expect_replies": False, "rpm_max": 1200, "low_battery_v": 43.5})
+    T.eq(link.fmt, m.FMT_BINARY)
+    T.eq(link.low_batt_mv, 43500)
+    link.set_rpm(-5000)
+    T.eq(link.rpm_set, -1200)
+    T.eq(link.poll(0), m.encode_set(-1200, m.FMT_BINARY))
+    T.eq(link.poll(50), None)
+    T.eq(link.poll(100), m.encode_set(-1200, m.FMT_BINARY))

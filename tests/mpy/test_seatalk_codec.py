@@ -227,3 +227,28 @@ def test_framer_handles_tick_wrap():
         fr.feed(b, t)
         t = (t + 2) & ((1 << 30) - 1)
     T.eq(fr.pop(), a)
+
+
+def test_framer_feed_does_not_allocate():
+    import micropython
+
+    parts = [h("84 86 26 97 02 00 00 00 08"), h("86 11 08 f7"), h("33 9c 01"), h("a1 03 11 22 33 44")]
+    fr = st.Framer(gap_ms=5, depth=4)
+    t = 0
+    n = 0
+    micropython.heap_lock()  # any allocation inside raises MemoryError
+    try:
+        for _ in range(50):
+            for p in parts:
+                t += 10  # an idle gap before each datagram
+                for b in p:
+                    fr.feed(b, t)
+                    t += 2
+                while fr.pending():
+                    fr._qn -= 1  # consume without pop() (which makes a bytes object)
+                    fr._qhead = (fr._qhead + 1) % 4
+                    n += 1
+    finally:
+        micropython.heap_unlock()
+    T.eq(n, 150)  # 0x84, 0x86 and the unknown 0xA1 each time; the cut "33 9c 01" ends at a gap
+    T.eq(fr.dropped_gap, 50)

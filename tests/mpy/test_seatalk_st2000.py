@@ -283,3 +283,13 @@ def test_knauf_rule_and_bad_datagrams():
     T.eq(d.bad_datagrams, 1)
     T.raises(ValueError, d.steer_to, float("nan"), 0)
     T.raises(ValueError, d.steer_to, 500, 0)
+
+
+def test_from_config_section():
+    d = sp.St2000.from_config(lambda dg: True, {"sender_id": 2, "key_interval_ms": 300,
+                                                "odd_rule": "knauf", "status_timeout_ms": 4000,
+                                                "deadband_deg": 1})
+    T.eq(d.sender_id, 2)
+    T.eq(d.key_interval_ms, 300)
+    T.eq(d.odd_rule, st.ODD_KNAUF)
+    T.eq(d.status_timeout_ms, 4000)
