@@ -120,6 +120,14 @@ SCHEMA = {
         "skip_app_pin": (0, "i", -1, 48),
         "watchdog_ms": (8000, "i", 1000, 60000),
     },
+    "hmi": {
+        "boat_id": (1, "i", 0, 65535),
+        "render_ms": (200, "i", 50, 5000),
+        "key_file": ("/hmi.key", "s", None, None),
+        "counter_file": ("/auth_rx.bin", "s", None, None),
+        "command_port": (10112, "i", 1, 65535),
+        "remote_enabled": (False, "b", None, None),
+    },
     "telemetry": {
         "enabled": (False, "b", None, None),
         "udp_host": ("255.255.255.255", "s", None, None),
