@@ -15,7 +15,8 @@ Driving contract (the shell does exactly this):
       act == WRITE: set the UART parity to link.parity ("E"/"O"; uart.init(parity=0/1) on the
                     ESP32, which drains the TX FIFO first) and write the single byte link.byte
                     now; then read its echo and pass it to on_rx. Call poll again afterwards.
-    ev = link.pop_event()       # (EV_SENT|EV_FAILED|EV_COLLISION, t_ms, text) or None
+    ev = link.pop_event()       # (EV_SENT|EV_FAILED|EV_COLLISION, t_ms, text, datagram) or None
+                                # forward EV_FAILED's datagram to pilot.on_send_failed(dg, t_ms)
 poll() never returns WRITE twice without an echo, an echo timeout, or a backoff in between, and
 every datagram ends in exactly one EV_SENT or EV_FAILED: the link never hangs.
 
@@ -120,7 +121,7 @@ class StLink:
         if len(self._ev) >= self._evmax:
             self._ev.pop(0)
             self.events_dropped += 1
-        self._ev.append((kind, t_ms, text))
+        self._ev.append((kind, t_ms, text, self._dg))
 
     def _deliver(self, b, t_ms):
         fr = self.framer
@@ -140,7 +141,7 @@ class StLink:
                 self._i += 1
                 if self._i == len(self._dg):
                     self.sent += 1
-                    self._event(EV_SENT, t_ms, self._dg)
+                    self._event(EV_SENT, t_ms, "sent")
                     if self.framer is not None:
                         self.framer.reset()  # the next byte starts a datagram
                     self._next(t_ms)

@@ -100,7 +100,7 @@ def run_chain(ms, pilot, drv, link, on_t=None, t=0):
             if e is None:
                 break
             if e[0] == sl.EV_FAILED:
-                drv.on_send_failed(b"", e[1])
+                drv.on_send_failed(e[3], e[1])
         t += 1
     return t, firsts
 

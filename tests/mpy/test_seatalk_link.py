@@ -129,7 +129,8 @@ def test_persistent_collision_fails_then_next_datagram_goes():
     ev = _events(link)
     T.eq([e[0] for e in ev].count(sl.EV_COLLISION), 6)
     T.eq([e[0] for e in ev if e[0] != sl.EV_COLLISION], [sl.EV_FAILED, sl.EV_SENT])
-    T.eq(ev[-1][2], k2)
+    T.eq(ev[-1][3], k2)
+    T.eq([e[3] for e in ev if e[0] == sl.EV_FAILED], [KEY])
 
 
 def test_queue_is_bounded_and_bad_datagram_is_an_error():

@@ -293,3 +293,17 @@ def test_from_config_section():
     T.eq(d.key_interval_ms, 300)
     T.eq(d.odd_rule, st.ODD_KNAUF)
     T.eq(d.status_timeout_ms, 4000)
+
+
+def test_bus_failure_is_not_blamed_on_the_pilot():
+    r = _engaged_rig()
+    r.drv.steer_to(3, r.t)
+    n = len(r.sent)
+    r.drv.poll(r.t)  # sends +1
+    T.eq(len(r.sent), n + 1)
+    lost = r.sent[-1]
+    r.inflight = [x for x in r.inflight if x[1] != lost]  # the bus gave up on it
+    r.drv.on_send_failed(lost, r.t + 60)  # without this the key would count as unconfirmed
+    r.run(3000)
+    T.eq(r.drv.keys_unconfirmed, 0)
+    T.eq(r.pilot.course, 203.0)
