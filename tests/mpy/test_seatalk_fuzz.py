@@ -124,3 +124,49 @@ def test_fuzz_decoder_direct():
         except ValueError:
             bad += 1
     T.true(bad > 0)
+
+
+def test_fuzz_link_and_driver_state_machines():
+    # random bus bytes, random polls, random valid-but-hostile pilot datagrams; the driver is
+    # re-engaged whenever it stops commanding. Nothing may raise, queues stay bounded.
+    from trackpilot import stlink as sl
+
+    rng = Prng(99)
+    sent = []
+    link = sl.StLink(framer=st.Framer(), rand=Prng(5), queue_len=4)
+    drv = sp.St2000(send=link.send, status_timeout_ms=800, confirm_timeout_ms=300,
+                    converge_window_ms=2000, mode_confirm_ms=300)
+    link.on_datagram = drv.on_datagram
+    t = (1 << 30) - 5000
+    steps = N // 5
+    for k in range(steps):
+        t = (t + rng.randint(0, 7)) & ((1 << 30) - 1)
+        r = rng.randint(0, 9)
+        if r == 0:
+            dg = st.encode_84(rng.randint(0, 359), rng.randint(0, 719) / 2, rng.randint(0, 4),
+                              rng.randint(-30, 30), rng.randint(0, 1) == 1)
+            for b in dg:
+                link.on_rx(b, t)
+        elif r == 1:
+            for b in st.encode_86(rng.randint(0, 255), rng.randint(0, 3)):
+                link.on_rx(b, t)
+        elif r == 2:
+            link.on_rx(rng.randint(0, 255), t)
+        elif r == 3 and drv.state in (sp.IDLE, sp.TAKEN_OVER, sp.FAILED):
+            drv.engage(t)
+        elif r == 4:
+            drv.steer_to(rng.randint(-180, 180), t)
+        elif r == 5 and rng.randint(0, 50) == 0:
+            drv.standby(t)
+        act = link.poll(t)
+        if act == sl.WRITE and rng.randint(0, 3):
+            link.on_rx(link.byte, t)  # the echo, mostly
+        drv.poll(t)
+        while link.pop_event():
+            pass
+        while drv.pop_event():
+            pass
+        T.true(len(link._q) <= 4 and len(link._ev) <= 16 and len(drv._ev) <= 32)
+    print("link/driver fuzz: %d steps, %d sent, %d failed, %d collisions, %d keys, %d hangs, %d takeovers" % (
+        steps, link.sent, link.failed, link.collisions, drv.keys_sent, drv.hangs, drv.takeovers))
+    T.true(drv.takeovers > 0 and link.sent > 0)
