@@ -35,9 +35,11 @@ from trackpilot import nmea
 from trackpilot.compat import const, ticks_diff
 from trackpilot.fix import RTK_FIXED, RTK_FLOAT, RTK_NONE, RTK_SINGLE, Fix
 
-BUF_SIZE = const(512)
+# Holds the longest RTCM3 frame (1029 B) and NAV-SAT up to 91 satellites, so those are checked
+# before they are dropped and a cut one costs nothing; longer frames are skipped by length.
+BUF_SIZE = const(1100)
 NMEA_MAX = const(480)  # NMEA says 82; u-blox PUBX,03 lines run to 400+
-UBX_MAX_SKIP = const(4096)  # longer "UBX" lengths are taken as garbage, not skipped
+UBX_MAX_SKIP = const(2048)  # longer "UBX" lengths are taken as garbage (NAV-SAT: 8+12*nSV)
 
 # message kinds (on_msg argument, `sources` bit = 1 << kind)
 K_NAV_PVT = const(1)
@@ -105,6 +107,29 @@ def crc24q(buf, a, b):
     for i in range(a, b):
         c = ((c << 8) & 0xFFFFFF) ^ t[(c >> 16) ^ buf[i]]
     return c
+
+
+# payload lengths of the decoded messages (fixed), and the messages allowed to be longer than the
+# buffer (skipped by length): NAV-SAT, NAV-SIG, RXM-RAWX, RXM-SFRBX, MON-SPAN. Any other length is
+# taken as a false or corrupted header and searched past, so one bad byte cannot make the parser
+# throw away up to UBX_MAX_SKIP good bytes.
+_UBX_FIXED = ((0x01, 0x07, 92), (0x01, 0x3C, 64), (0x01, 0x14, 36), (0x01, 0x61, 4),
+              (0x05, 0x00, 2), (0x05, 0x01, 2))
+_UBX_LONG = ((0x01, 0x35), (0x01, 0x43), (0x02, 0x15), (0x02, 0x13), (0x0A, 0x31))
+
+
+def _ubx_len_ok(cls, mid, ln):
+    for c, m, n in _UBX_FIXED:
+        if c == cls and m == mid:
+            return ln == n
+    if ln + 8 <= BUF_SIZE:
+        return True
+    if ln > UBX_MAX_SKIP:
+        return False
+    for c, m in _UBX_LONG:
+        if c == cls and m == mid:
+            return True
+    return False
 
 
 def _u2(b, o):
@@ -223,6 +248,7 @@ class GnssParser:
         self._p_hdg = _P_NONE
         self._p_acc = _P_NONE
         self._hacc_01mm = 0
+        self._bad_pos = False
         self._sog_e3 = 0
         self._sog_k = 0.001
         self._cog_e3 = 0
@@ -364,11 +390,11 @@ class GnssParser:
                     break
                 ln = buf[s + 4] | (buf[s + 5] << 8)
                 total = ln + 8
+                if not _ubx_len_ok(buf[s + 2], buf[s + 3], ln):
+                    st.garbage += 1  # a length this message never has: a false or cut header
+                    s += 1
+                    continue
                 if total > BUF_SIZE:
-                    if ln > UBX_MAX_SKIP:
-                        st.garbage += 1
-                        s += 1
-                        continue
                     self._begin_skip(_SKIP_UBX, total, s, end)
                     s = end
                     break
@@ -727,6 +753,7 @@ class GnssParser:
             self._open_t = self._t_ms
             self._w_utc = -1
             self._p_pos = self._p_stat = self._p_vel = self._p_hdg = self._p_acc = _P_NONE
+            self._bad_pos = False
         if itow >= 0:
             w.itow_ms = itow
             if utc < 0 and self._utc_off >= 0:
@@ -748,6 +775,9 @@ class GnssParser:
             return
         w = self._w
         # the epoch's floats, made once here (5 heap objects at most)
+        if self._bad_pos:
+            w.pos_valid = False
+            w.rtk = RTK_NONE
         if self._p_acc != _P_NONE:
             w.h_acc_m = self._hacc_01mm * 0.0001
         if self._p_vel != _P_NONE:
@@ -793,7 +823,14 @@ class GnssParser:
         return self._done
 
     def _set_pos(self, prio, lat_e7, lon_e7, lat_hp, lon_hp, height_mm):
-        if prio < self._p_pos or lat_e7 is None or lon_e7 is None:
+        if lat_e7 is None or lon_e7 is None:
+            return
+        if not (-900000000 <= lat_e7 <= 900000000 and -1800000000 <= lon_e7 <= 1800000000):
+            # a checked frame with an impossible position: this epoch has no position
+            self.stats.bad_field += 1
+            self._bad_pos = True
+            return
+        if prio < self._p_pos:
             return
         self._p_pos = prio
         w = self._w
@@ -816,7 +853,7 @@ class GnssParser:
         if prio < self._p_vel:
             return
         self._p_vel = prio
-        self._w.vel_valid = valid
+        self._w.vel_valid = valid and sog_e3 >= 0
         self._sog_e3 = sog_e3
         self._sog_k = to_mps
         self._cog_e3 = cog_e3 % 360000

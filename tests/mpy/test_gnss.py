@@ -281,24 +281,26 @@ def test_resync_after_cut_frames():
 
 def test_oversize_frames_skipped_by_length():
     from trackpilot.ubxcfg import ubx_frame
-    fix, gp = _parser()
-    big = ubx_frame(0x01, 0x35, bytes(700))
-    bad = bytearray(ubx_frame(0x01, 0x35, bytes(600)))
+    big = ubx_frame(0x01, 0x35, bytes(1300))  # NAV-SAT: longer than the buffer, skipped
+    bad = bytearray(ubx_frame(0x01, 0x35, bytes(1200)))
     bad[300] ^= 1
-    big_rtcm = rtcm3(bytes(900))
-    data = big + pvt(1000) + bytes(bad) + pvt(1200) + big_rtcm + pvt(1400)
-    seen = []
-    gp.on_msg = lambda k: seen.append(k)
-    for chunk in (0, 5):
+    odd = ubx_frame(0x01, 0x99, bytes(1200))  # unknown long message: taken as garbage
+    data = (big + pvt(1000) + bytes(bad) + pvt(1200) + rtcm3(bytes(1023)) + odd + pvt(1400) +
+            rtcm3(b"\x3e\xd0" + bytes(900))[:500] + pvt(1600))
+    for chunk in (0, 5, 333):
         fix, gp = _parser()
         seen = []
         gp.on_msg = lambda k: seen.append(k)
         _feed(gp, data, 0, chunk)
         t.eq(seen, [gnss.K_UBX_OTHER, gnss.K_NAV_PVT, gnss.K_NAV_PVT, gnss.K_RTCM3,
                     gnss.K_NAV_PVT], "chunk %d" % chunk)
-        t.eq(gp.stats.oversize, 3)
+        t.eq(gp.stats.oversize, 2)
         t.eq(gp.stats.ck_err, 1)
-        t.eq(gp.rtcm.length, 900)
+        t.eq(gp.rtcm.length, 1023)
+        # the cut RTCM3 frame waits for its length; the PVT behind it is found once it is in
+        gp.feed(bytes(600), 600, 0)
+        t.eq(seen[-1], gnss.K_NAV_PVT)
+        t.eq(gp.pvt.itow_ms, 1600)
 
 
 def test_crc24q_check_value():
@@ -312,10 +314,13 @@ def test_bad_fields_are_safe():
     t.eq(gp.stats.bad_field, 1)
     t.eq(_feed(gp, nmea(b"GPGGA,1000,5129.4,N")), 1)  # short: no UTC, no fields
     t.true(not fix.pos_valid)
-    # wrong UBX lengths are not decoded as the message
+    # a length a decoded message never has: searched past at once (no wait for 91 bytes)
     from trackpilot.ubxcfg import ubx_frame
-    _feed(gp, ubx_frame(0x01, 0x07, bytes(91)))
-    t.eq(gp.stats.unknown, 1)
+    seen = []
+    gp.on_msg = lambda k: seen.append(k)
+    _feed(gp, ubx_frame(0x01, 0x07, bytes(91))[:20] + pvt(5000))
+    t.eq(seen, [gnss.K_NAV_PVT])
+    t.eq(gp.stats.unknown, 0)
 
 
 def test_gpsd_comment_lines():
