@@ -135,3 +135,17 @@ def test_example_track_parses():
     t.eq(trk.waypoints[-1].radius_m, 2.0)
     turns = [abs(leg.turn_deg) for leg in trk.legs]
     t.true(sum(1 for a in turns if a > 85.0) == 2)  # the 180-degree bend: two 90s
+
+
+def test_crlf_bom_and_comments():
+    text = "\ufeff# exported\r\nlon,lat,speed_mps\r\n3.61,51.49,1 # first\r\n\r\n3.61,51.491,1\r\n"
+    trk = parse_track_csv(text)
+    t.eq(len(trk.waypoints), 2)
+    t.eq(trk.waypoints[1].line_no, 5)
+    t.eq(trk.waypoints[0].lat_e7, 514900000)
+
+
+def test_antimeridian_track():
+    trk = parse_track_csv("lon,lat,speed_mps\n179.9995,0,1\n-179.9995,0,1\n")
+    t.near(trk.legs[0].length_m, 111.3, 0.1)
+    t.near(trk.legs[0].bearing_deg, 90.0, 1e-3)
