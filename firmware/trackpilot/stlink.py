@@ -202,11 +202,12 @@ class StLink:
             self._collision(t_ms, "no echo for byte %d (%02x)" % (self._i, self._dg[self._i]))
             return self.poll(t_ms)
         if s == _S_WAIT_BUS:
-            if self._last_rx is not None:
-                free_at = ticks_add(self._last_rx, self._wait)
-                if ticks_diff(t_ms, free_at) < 0:
-                    self.until_ms = free_at
-                    return WAIT
+            if self._last_rx is None:
+                self._last_rx = t_ms  # nothing heard yet: listen for one idle time first
+            free_at = ticks_add(self._last_rx, self._wait)
+            if ticks_diff(t_ms, free_at) < 0:
+                self.until_ms = free_at
+                return WAIT
             self._s = _S_WRITE
         # _S_WRITE: one byte, its parity carrying the command bit
         b = self._dg[self._i]
