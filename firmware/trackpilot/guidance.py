@@ -380,8 +380,27 @@ class LosLaw:
 LAWS = {"seed": SeedLaw, "los": LosLaw}
 
 
-def make_law(name, params=None):
-    """The guidance law named in config guidance.law ("seed" or "los"), with parameter overrides."""
+def make_law(cfg, params=None):
+    """The guidance law chosen by configuration, with its parameters.
+
+    make_law("los", {"clip_deg": 30.0})             # a name and the law's own parameter names
+    make_law(cfg["guidance"], cfg["boat"])           # the config sections: guidance.law names the
+        # law; keys "<law>_<param>" (seed_k_psi, los_lookahead_gain ...) set its parameters, other
+        # laws' keys are ignored; the boat's min_turn_radius_m sets LosLaw.turn_radius_m.
+    Unknown parameters or values out of range raise ValueError (never silently ignored)."""
+    if isinstance(cfg, dict):
+        name = cfg.get("law", "los")
+        prefix = name + "_"
+        own = {}
+        for k in cfg:
+            if k.startswith(prefix):
+                own[k[len(prefix):]] = cfg[k]
+        boat = params or {}
+        if name == "los" and "min_turn_radius_m" in boat and "turn_radius_m" not in own:
+            own["turn_radius_m"] = boat["min_turn_radius_m"]
+        params = own
+    else:
+        name = cfg
     cls = LAWS.get(name)
     if cls is None:
         raise ValueError("unknown guidance law %r (known: seed, los)" % (name,))

@@ -191,6 +191,17 @@ class Progress:
         """The current leg's speed (its start waypoint's)."""
         return self.track.legs[self.leg].speed_mps
 
+    def set_leg(self, i):
+        """Put the boat on leg i (restoring saved state, or an explicit choice); the advance
+        rules go on from there at the next update()."""
+        if not 0 <= i < self.n_legs:
+            raise ValueError("leg %d out of range 0..%d" % (i, self.n_legs - 1))
+        self.leg = i
+        self.finished = False
+        self.finish_reason = None
+        self._need_join = False
+        self._hold = False
+
     def skip(self):
         """Give up the current leg's end waypoint: go to the next leg (on the last: finish)."""
         if self.leg + 1 < self.n_legs:

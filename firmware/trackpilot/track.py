@@ -216,11 +216,14 @@ def parse_track_csv(text, min_leg_m=MIN_LEG_M, max_speed_mps=MAX_SPEED_MPS, name
 def validate(trk, boat=None):
     """Warnings (strings, with line numbers) for a parsed track on this boat.
 
-    boat: dict with turn_radius_m, corner_tol_m, min_speed_mps (BOAT_DEFAULTS otherwise)."""
+    boat: dict with turn_radius_m (or config's min_turn_radius_m), corner_tol_m, min_speed_mps
+    (BOAT_DEFAULTS for what it lacks); other keys are ignored."""
     b = dict(BOAT_DEFAULTS)
     if boat:
         for k in boat:
             b[k] = boat[k]
+        if "min_turn_radius_m" in boat and "turn_radius_m" not in boat:  # the config's name
+            b["turn_radius_m"] = boat["min_turn_radius_m"]
     r = b["turn_radius_m"]
     warnings = []
     wps = trk.waypoints
@@ -251,6 +254,26 @@ def validate(trk, boat=None):
                             "inside the waypoint)" % (wps[k].label(k), th, r, dev,
                                                       r / math.cos(math.radians(abs(th)) * 0.5) - r))
     return warnings
+
+
+def track_id(text):
+    """Short id of a track file's content: its CRC-32 (as zlib.crc32) in 8 hex digits, to match
+    saved state and logs with the file. binascii when the build has it, else a bitwise loop (a
+    one-off per load)."""
+    if isinstance(text, str):
+        text = text.encode()
+    try:
+        import binascii
+
+        crc = binascii.crc32(text) & 0xFFFFFFFF
+    except (ImportError, AttributeError):
+        crc = 0xFFFFFFFF
+        for b in text:
+            crc ^= b
+            for _ in range(8):
+                crc = (crc >> 1) ^ (0xEDB88320 if crc & 1 else 0)
+        crc ^= 0xFFFFFFFF
+    return "%08x" % crc
 
 
 def leg_table(trk):

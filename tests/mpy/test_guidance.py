@@ -272,3 +272,16 @@ def test_example_loop_end_to_end():
     t.true(max_path < 1.2, "los path xte in current %r" % max_path)  # measured 0.81 m
     reason, max_xte, _ = _sail_example(SeedLaw(), 0.0, 0.0)
     t.true(max_xte > 6.0, "seed xte %r" % max_xte)  # measured 8.06 m: the seed trials' +-7 m
+
+
+def test_make_law_from_config_sections():
+    g = {"law": "seed", "seed_blend_m": 40.0, "seed_k_y_deg_per_m": 2.0, "seed_k_psi": 1.0,
+         "seed_clip_deg": 25.0, "los_clip_deg": 60.0}
+    law = make_law(g, {"min_turn_radius_m": 8.0, "name": "x"})
+    t.eq((law.name, law.blend_m, law.k_y_deg_per_m, law.clip_deg), ("seed", 40.0, 2.0, 25.0))
+    g["law"] = "los"
+    law = make_law(g, {"min_turn_radius_m": 8.0})
+    t.eq((law.name, law.clip_deg, law.turn_radius_m), ("los", 60.0, 8.0))
+    g["los_bogus"] = 1.0
+    t.raises(ValueError, make_law, g, {})
+    t.raises(ValueError, make_law, {"law": "pid"}, {})

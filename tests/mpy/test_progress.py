@@ -173,3 +173,12 @@ def test_waypoint_radius_advances():
     _at(prog, 0.0, 50.0)
     _at(prog, -7.0, 91.0)  # 11.4 m from the waypoint, outside the corner
     t.eq(prog.leg, 1)
+
+
+def test_set_leg():
+    prog = Progress(_square())
+    prog.set_leg(2)
+    _at(prog, 100.0, 50.0)
+    t.eq(prog.leg, 2)
+    t.raises(ValueError, prog.set_leg, 3)
+    t.raises(ValueError, prog.set_leg, -1)

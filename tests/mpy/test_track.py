@@ -149,3 +149,14 @@ def test_antimeridian_track():
     trk = parse_track_csv("lon,lat,speed_mps\n179.9995,0,1\n-179.9995,0,1\n")
     t.near(trk.legs[0].length_m, 111.3, 0.1)
     t.near(trk.legs[0].bearing_deg, 90.0, 1e-3)
+
+
+def test_track_id_and_config_boat():
+    a = track.track_id(GOOD)
+    t.eq(len(a), 8)
+    t.eq(track.track_id("123456789"), "cbf43926")  # the CRC-32 check value
+    t.eq(a, track.track_id(GOOD.encode()))
+    t.true(a != track.track_id(GOOD + "# changed\n"))
+    trk = track_from_m([(0, 0, 2.0), (0, 100, 2.0), (100, 100, 2.0)])
+    t.eq(len(track.validate(trk, {"min_turn_radius_m": 4.0, "name": "boat"})), 0)  # 1.2 m
+    t.eq(len(track.validate(trk, {"min_turn_radius_m": 9.0})), 1)
