@@ -202,6 +202,15 @@ class MotorLink:
                    rpm_max=rpm_max, low_batt_mv=int(motor_cfg.get("low_battery_v", 44.0) * 1000))
 
     @property
+    def battery_v(self):
+        """Battery voltage from the last reply, or None."""
+        return None if self.batt_mv is None else self.batt_mv / 1000.0
+
+    def duty_u16(self, duty_idle_u16=0, duty_full_u16=65535):
+        """The current setpoint as a PWM duty for an analog throttle (see rpm_to_duty_u16)."""
+        return rpm_to_duty_u16(self.rpm_set, self.rpm_max, duty_idle_u16, duty_full_u16)
+
+    @property
     def parse_errors(self):
         return self._parser.errors
 

@@ -8,7 +8,8 @@ Usage (the shell wires it to a StLink):
     pilot.engage(t_ms)        # sends Auto only now: never at boot, never by itself
     pilot.steer_to(-4.0, t_ms)  # locked course := pilot compass - 4 deg, by +-10/+-1 keystrokes
     pilot.standby(t_ms)
-    pilot.poll(t_ms)          # call every ~50 ms: stepping, confirmations, timeouts, recovery
+    pilot.poll(t_ms)          # stepping, confirmations, timeouts, recovery: call after each
+                              # datagram and when pilot.next_due_ms(t_ms) has passed (or ~50 ms)
     ev = pilot.pop_event()    # (name, t_ms, reason) or None; names are the EV_* strings below
     # on a link EV_FAILED for one of our datagrams: pilot.on_send_failed(dg, t_ms)
 
@@ -346,6 +347,30 @@ class St2000:
         self._key = None
 
     # ---- time ----
+    def next_due_ms(self, t_ms, cap_ms=1000):
+        """Milliseconds until poll() has something to do (0 = now), at most cap_ms; for a shell
+        that sleeps between polls. A received datagram or a command can make it sooner."""
+        due = [cap_ms]
+        if self.last_status_ms is not None and not self.status_lost:
+            due.append(ticks_diff(self.last_status_ms, t_ms) + self.status_timeout_ms + 1)
+        s = self.state
+        if self._want is not None:
+            due.append(ticks_diff(self._want_t, t_ms) + self.mode_confirm_ms)
+        if s == RECOVERING and (self._rstage == _R_STANDBY_SEND or self._rstage == _R_AUTO_SEND):
+            due.append(ticks_diff(self._rt, t_ms) + self.recover_pause_ms if self._rattempt or
+                       self._rstage == _R_AUTO_SEND else 0)
+        if s == ENGAGED:
+            if self._key is not None:
+                due.append(ticks_diff(self._key_t, t_ms) + self.confirm_timeout_ms)
+            elif self.target_course_deg is not None and self.course_deg is not None and abs(
+                    wrap180(self.target_course_deg - self.course_deg)) > self.tolerance_deg:
+                due.append(0 if self._last_key_t is None else
+                           ticks_diff(self._last_key_t, t_ms) + self.key_interval_ms)
+            if self._conv_t0 is not None:
+                due.append(ticks_diff(self._conv_t0, t_ms) + self.converge_window_ms + 1)
+        d = min(due)
+        return d if d > 0 else 0
+
     def poll(self, t_ms):
         if self.last_status_ms is not None and not self.status_lost and not self.status_fresh(t_ms):
             self.status_lost = True

@@ -6,15 +6,18 @@ Driving contract (the shell does exactly this):
     link = StLink(framer=seatalk.Framer(), on_datagram=pilot.on_datagram, rand=Prng(seed))
     link.send(dg)               # queue a datagram; False when the queue is full (bounded)
     # for EVERY byte read from the SeaTalk UART, in order, with its arrival time:
-    link.on_rx(byte, t_ms)      # the echo of our own bytes is consumed here; all other bytes go
-                                # to the framer, and each framed datagram to on_datagram(dg, t_ms)
+    link.on_rx(byte, t_ms)      # -> False for the echo of our own bytes (consumed here); True for
+                                # any other byte, which goes to the framer (if given), and each
+                                # framed datagram to on_datagram(dg, t_ms)
     # then, and whenever the time given by WAIT has come:
     act = link.poll(t_ms)
-      act == IDLE:  nothing queued; call poll again after send() or on_rx()
-      act == WAIT:  nothing to write before link.until_ms (poll again then, or after on_rx)
-      act == WRITE: set the UART parity to link.parity ("E"/"O"; uart.init(parity=0/1) on the
-                    ESP32, which drains the TX FIFO first) and write the single byte link.byte
-                    now; then read its echo and pass it to on_rx. Call poll again afterwards.
+      (IDLE,)              nothing queued; call poll again after send() or on_rx()
+      (WAIT, until_ms)     nothing to write before until_ms (poll again then, or after on_rx)
+      (WRITE, byte, par)   set the UART parity to par ("E"/"O"; uart.init(parity=0 or 1) on the
+                           ESP32, which drains the TX FIFO first) and write the single byte now;
+                           its echo comes back through on_rx. Call poll again afterwards.
+    act[0] is one of IDLE, WAIT, WRITE; the same values are also in link.byte, link.parity,
+    link.until_ms.
     ev = link.pop_event()       # (EV_SENT|EV_FAILED|EV_COLLISION, t_ms, text, datagram) or None
                                 # forward EV_FAILED's datagram to pilot.on_send_failed(dg, t_ms)
 poll() never returns WRITE twice without an echo, an echo timeout, or a backoff in between, and
@@ -39,6 +42,8 @@ EV_SENT = const(1)
 EV_FAILED = const(2)
 EV_COLLISION = const(3)
 EV_NAMES = ("", "SENT", "FAILED", "COLLISION")
+
+_IDLE_ACT = (IDLE,)
 
 _S_IDLE = const(0)  # nothing to send
 _S_WAIT_BUS = const(1)  # waiting for the bus to be idle
@@ -133,7 +138,8 @@ class StLink:
                 self.on_datagram(fr.pop(), t_ms)
 
     def on_rx(self, b, t_ms):
-        """Every byte the UART received (our own echo included), in order."""
+        """Every byte the UART received (our own echo included), in order. Returns False when
+        the byte was the expected echo of our own transmission, True otherwise."""
         self.rx_bytes += 1
         self._last_rx = t_ms
         if self._s == _S_ECHO:
@@ -147,11 +153,12 @@ class StLink:
                     self._next(t_ms)
                 else:
                     self._s = _S_WRITE
-                return
+                return False
             self._collision(t_ms, "echo %02x for %02x at byte %d" % (b, self._dg[self._i], self._i))
             if self.framer is not None:
                 self.framer.reset()
         self._deliver(b, t_ms)
+        return True
 
     def _collision(self, t_ms, reason):
         self.collisions += 1
@@ -181,7 +188,15 @@ class StLink:
         self._wait = self.idle_ms + (self.rand.randint(0, self.extra_wait_ms) if self.extra_wait_ms else 0)
 
     def poll(self, t_ms):
-        """The next action (IDLE, WAIT with self.until_ms, or WRITE with self.byte/self.parity)."""
+        """The next action: (IDLE,), (WAIT, until_ms) or (WRITE, byte, parity)."""
+        a = self._poll(t_ms)
+        if a == WRITE:
+            return (WRITE, self.byte, self.parity)
+        if a == WAIT:
+            return (WAIT, self.until_ms)
+        return _IDLE_ACT
+
+    def _poll(self, t_ms):
         s = self._s
         if s == _S_IDLE:
             if not self._q:
@@ -200,7 +215,7 @@ class StLink:
                 return WAIT
             self.no_echo += 1
             self._collision(t_ms, "no echo for byte %d (%02x)" % (self._i, self._dg[self._i]))
-            return self.poll(t_ms)
+            return self._poll(t_ms)
         if s == _S_WAIT_BUS:
             if self._last_rx is None:
                 self._last_rx = t_ms  # nothing heard yet: listen for one idle time first

@@ -180,3 +180,12 @@ def test_from_config_section():
     T.eq(link.poll(0), m.encode_set(-1200, m.FMT_BINARY))
     T.eq(link.poll(50), None)
     T.eq(link.poll(100), m.encode_set(-1200, m.FMT_BINARY))
+
+
+def test_duty_and_battery_v():
+    link = m.MotorLink(rpm_max=1000)
+    link.set_rpm(500)
+    T.eq(link.duty_u16(), 32768)
+    T.eq(link.battery_v, None)
+    link.feed(m.encode_reply(0, 47250, 0), 0)
+    T.near(link.battery_v, 47.25, 1e-3)

@@ -86,7 +86,7 @@ def run_chain(ms, pilot, drv, link, on_t=None, t=0):
             on_t(t)
         drv.poll(t)
         act = link.poll(t)
-        if act == sl.WRITE:
+        if act[0] == sl.WRITE:
             bus.append((t + CHAR_MS, link.byte, st.command_bit(link.byte, link.parity), "fw"))
         # pilot side: one byte per character time on an idle bus
         if pilot.want_tx(t) and not [c for c in bus if c[3] == "pilot"]:

@@ -159,7 +159,7 @@ def test_fuzz_link_and_driver_state_machines():
         elif r == 5 and rng.randint(0, 50) == 0:
             drv.standby(t)
         act = link.poll(t)
-        if act == sl.WRITE and rng.randint(0, 3):
+        if act[0] == sl.WRITE and rng.randint(0, 3):
             link.on_rx(link.byte, t)  # the echo, mostly
         drv.poll(t)
         while link.pop_event():

@@ -30,11 +30,11 @@ class FakeBus:
         while self.t < until_ms:
             self.rx.sort(key=lambda x: x[0])
             while self.rx and self.rx[0][0] <= self.t:
-                link.on_rx(self.rx.pop(0)[1], self.t)
+                self.got.append(link.on_rx(self.rx.pop(0)[1], self.t))
             act = link.poll(self.t)
-            if act == sl.WRITE:
-                self.wire.append((self.t, link.byte, link.parity))
-                b = link.byte
+            if act[0] == sl.WRITE:
+                self.wire.append((self.t, act[1], act[2]))
+                b = act[1]
                 if self.mangle is not None:
                     b = self.mangle(self.writes, b)
                 self.writes += 1
@@ -66,7 +66,7 @@ def test_send_clean_bus_parity_and_sent_event():
     T.eq(ev[0][0], sl.EV_SENT)
     T.eq(link.sent, 1)
     T.eq(got, [])  # our own echo is not handed on as a received datagram
-    T.eq(link.poll(bus.t), sl.IDLE)
+    T.eq(link.poll(bus.t), (sl.IDLE,))
     # each byte waits for its echo: writes are >= echo_ms apart
     for i in range(1, 4):
         T.true(bus.wire[i][0] - bus.wire[i - 1][0] >= 3)
@@ -114,7 +114,7 @@ def test_no_echo_fails_after_bounded_retries_and_never_hangs():
     T.eq(link.no_echo, 12)  # 1 try + 5 retries, for each datagram
     T.eq(link.failed, 2)
     T.eq(bus.writes, 12)
-    T.eq(link.poll(bus.t), sl.IDLE)
+    T.eq(link.poll(bus.t), (sl.IDLE,))
     T.true("no echo" in fails[0][2])
 
 
@@ -174,10 +174,24 @@ def test_tick_wrap():
         tm = t & ((1 << 30) - 1)
         while pending and pending[0][0] <= t:
             link.on_rx(pending.pop(0)[1], tm)
-        if link.poll(tm) == sl.WRITE:
+        if link.poll(tm)[0] == sl.WRITE:
             written.append(link.byte)
             pending.append((t + 3, link.byte))
             continue
         t += 1
     T.eq(bytes(written), KEY)
     T.eq(link.sent, 1)
+
+
+def test_on_rx_tells_echo_from_traffic_and_wait_tuple():
+    link = sl.StLink()
+    bus = FakeBus(link)
+    bus.talk(0, b"\x9c\x01\x12\x00", 2)
+    link.send(KEY)
+    bus.run(60)
+    T.eq(bus.got, [True] * 4 + [False] * 4)  # others' bytes, then our echo
+    link.send(KEY)
+    link.on_rx(0x00, 100)
+    act = link.poll(101)
+    T.eq(act, (sl.WAIT, 103))  # idle_ms = 3 after the last byte heard
+    T.eq(link.poll(103), (sl.WRITE, 0x86, "E"))

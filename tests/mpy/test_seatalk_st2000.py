@@ -307,3 +307,36 @@ def test_bus_failure_is_not_blamed_on_the_pilot():
     r.run(3000)
     T.eq(r.drv.keys_unconfirmed, 0)
     T.eq(r.pilot.course, 203.0)
+
+
+def test_next_due_ms_wakes_the_shell_in_time():
+    # drive the rig only at the times next_due_ms asks for (plus datagram arrivals): the same
+    # stepping result as polling every 10 ms
+    r = _engaged_rig()
+    r.drv.steer_to(-14, r.t)
+    T.eq(r.drv.next_due_ms(r.t), 0)  # a key is due now
+    r.drv.poll(r.t)
+    d = r.drv.next_due_ms(r.t)
+    T.true(0 < d <= 1500, "waiting for the confirmation, %d" % d)
+    wakes = 0
+    next_t = r.t
+    end = r.t + 5000
+    while r.t < end:
+        p = r.pilot
+        arrived = False
+        for item in [x for x in r.inflight if x[0] <= r.t]:
+            r.inflight.remove(item)
+            p.receive(item[1], r.t)
+        p.step(r.t, 10)
+        for item in sorted([x for x in p.out if x[0] <= r.t], key=lambda x: x[0]):
+            p.out.remove(item)
+            r.drv.on_datagram(item[1], r.t)
+            arrived = True
+        if arrived or r.t >= next_t:
+            r.drv.poll(r.t)
+            next_t = r.t + r.drv.next_due_ms(r.t)
+            wakes += 1
+        r.t += 10
+    T.eq(r.pilot.course, 186.0)
+    T.true(wakes < 60, "wakes %d" % wakes)
+    T.true(0 < r.drv.next_due_ms(r.t) <= 1000)  # idle on course: the status timeout or the cap
