@@ -65,6 +65,7 @@ FIELDS = (
     ("corr_age_s", 10, "s", D2, 0),  # age of the RTK corrections
     ("leg", 1, "", D1, 0),
     ("xte_m", 100, "m", D1, 0),
+    ("path_xte_m", 100, "m", D1, 0),  # against the path the guidance planned (rounded corners)
     ("heading_cmd_deg", 100, "deg", D1, 36000),
     ("speed_cmd_mps", 1000, "m/s", D1, 0),
     ("pilot_mode", 1, "", D1, 0),
@@ -90,7 +91,7 @@ class ControlRecord:
       t_ms (1 ms ticks), itow_ms (1 ms), pos_valid, lat_e7, lat_hp, lon_e7, lon_hp (exact ints),
       rtk (fix.RTK_*), num_sv, h_acc_m (1 mm), heading_valid, heading_deg (0.01),
       heading_acc_deg (0.01), vel_valid, sog_mps (1 mm/s), cog_deg (0.01), corr_age_s (0.1),
-      leg, xte_m (1 cm), heading_cmd_deg (0.01), speed_cmd_mps (1 mm/s), pilot_mode,
+      leg, xte_m (1 cm), path_xte_m (1 cm), heading_cmd_deg (0.01), speed_cmd_mps (1 mm/s), pilot_mode,
       compass_deg (0.1), locked_deg (0.1), rudder_deg (0.1), keys_sent, keys_net_deg (cumulative),
       rpm_set, rpm, battery_v (0.01), wind_angle_deg (0.1), wind_speed_mps (0.01), alarms, mode.
     Decoded records also carry `key` (True for an absolute record) and `offset` (byte offset).
@@ -118,6 +119,7 @@ class ControlRecord:
         self.corr_age_s = 0.0
         self.leg = 0
         self.xte_m = 0.0
+        self.path_xte_m = 0.0
         self.heading_cmd_deg = 0.0
         self.speed_cmd_mps = 0.0
         self.pilot_mode = 0
@@ -135,6 +137,26 @@ class ControlRecord:
         self.mode = 0
         self.key = False
         self.offset = -1
+
+    def fill_fix(self, fix):
+        """Copy the GNSS epoch's fields from a fix.Fix (t_ms, itow_ms, position, rtk, num_sv,
+        h_acc_m, heading, heading_acc_deg, velocity)."""
+        self.t_ms = fix.t_ms
+        self.itow_ms = fix.itow_ms
+        self.pos_valid = fix.pos_valid
+        self.lat_e7 = fix.lat_e7
+        self.lat_hp = fix.lat_hp
+        self.lon_e7 = fix.lon_e7
+        self.lon_hp = fix.lon_hp
+        self.rtk = fix.rtk
+        self.num_sv = fix.num_sv
+        self.h_acc_m = fix.h_acc_m
+        self.heading_valid = fix.heading_valid
+        self.heading_deg = fix.heading_deg
+        self.heading_acc_deg = fix.heading_acc_deg
+        self.vel_valid = fix.vel_valid
+        self.sog_mps = fix.sog_mps
+        self.cog_deg = fix.cog_deg
 
 
 class Header:

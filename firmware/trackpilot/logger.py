@@ -19,8 +19,10 @@ Nothing here raises to the caller once the logger is built.
 Usage:
     lg = Logger("/log", fw_version="0.3", max_file_bytes=256 * 1024)
     lg.start(t_ms, reset_cause="power_on", config_hash="a1b2c3", track_id="loop")
-    lg.track(track.waypoints, "loop")
-    lg.control(rec)                      # each GNSS epoch (a filled logfmt.ControlRecord)
+    lg.track(track)                      # a track.Track, or a list of waypoints and an id
+    rec = lg.rec                         # a preallocated logfmt.ControlRecord
+    rec.fill_fix(fix); rec.xte_m = ...   # each GNSS epoch
+    lg.control(rec)
     lg.event("MODE", "STANDBY->AUTO: HMI", t_ms)
     lg.tick(t_ms)                        # often (e.g. every loop); flushes when due
     lg.close()
@@ -28,17 +30,12 @@ Usage:
 import os
 
 from trackpilot.compat import const, ticks_diff
-from trackpilot.logfmt import LogEncoder
+from trackpilot.logfmt import ControlRecord, LogEncoder
 
 _ENOSPC = const(28)
 _MAX_CONTROL_BYTES = const(400)  # worst-case control frame (rotation is decided before encoding)
 _MAX_EVENT_BYTES = const(250)  # worst-case EVENT frame (text is cut to 200 bytes)
 _EXT = ".tpl"
-
-
-def _statvfs_free(root):
-    st = os.statvfs(root)
-    return st[1] * st[4]  # f_frsize * f_bavail
 
 
 def parse_name(name):
@@ -65,7 +62,13 @@ class Logger:
     control_reserve_bytes = 64 * 1024  # below this, drop control records, keep events
     event_reserve_bytes = 8 * 1024  # below this, drop everything
 
-    def __init__(self, root, fw_version="", free_fn=None, open_fn=open, key_every=25, **tunables):
+    def __init__(self, root, fw_version="", free_fn=None, open_fn=open, key_every=25,
+                 statvfs=None, min_free_bytes=None, **tunables):
+        # statvfs: os.statvfs-like callable (path -> tuple), used when no free_fn is given.
+        # min_free_bytes: config log.min_free_bytes = low_water_bytes (older sessions go below it).
+        if min_free_bytes is not None:
+            self.low_water_bytes = min_free_bytes
+        self._statvfs = statvfs
         for k in tunables:
             if not hasattr(Logger, k):
                 raise ValueError("unknown logger setting %s" % k)
@@ -75,6 +78,7 @@ class Logger:
         self._free_fn = free_fn
         self._open = open_fn
         self.enc = LogEncoder(key_every)
+        self.rec = ControlRecord()  # the application may fill this one in place every epoch
         self._buf = bytearray(self.buf_bytes)
         self._n = 0  # bytes in _buf
         self._buf_control = 0  # records in _buf (counted as dropped if the write fails)
@@ -123,7 +127,8 @@ class Logger:
         try:
             if self._free_fn:
                 return self._free_fn()
-            return _statvfs_free(self.root)
+            st = (self._statvfs or os.statvfs)(self.root)
+            return st[1] * st[4]  # f_frsize * f_bavail
         except Exception:  # no statvfs on this port, or the callback failed: unknown
             return 1 << 30  # let the writes find out (ENOSPC is handled)
 
@@ -149,9 +154,9 @@ class Logger:
         self._space_due_ms = (self._now_ms + self.space_check_ms) & 0x3FFFFFFF
         if self._full and ticks_diff(self._now_ms, self._retry_ms) < 0:
             return self.level  # a write just failed with ENOSPC: trust that, not statvfs
-        free = self.free_bytes() - need_bytes
-        while free < self.low_water_bytes and self._delete_oldest():
-            free = self.free_bytes() - need_bytes
+        free = self.free_bytes()
+        while free - need_bytes < self.low_water_bytes and self._delete_oldest():
+            free = self.free_bytes()
         if free < self.event_reserve_bytes:
             level = 2
         elif free < self.control_reserve_bytes:
@@ -187,6 +192,12 @@ class Logger:
         self._due_ms = (t_ms + self.flush_ms) & 0x3FFFFFFF
         self._next_part()
         return self.path if self._f is not None else ""
+
+    def open_session(self, fw_version, config_hash, track_id, reset_cause, t_ms, utc=""):
+        """start() with the firmware version (the application's call at boot)."""
+        self.fw_version = fw_version
+        return self.start(t_ms, reset_cause=reset_cause, config_hash=config_hash,
+                          track_id=track_id, utc=utc)
 
     def _next_part(self):
         """Close the current part and open the next one with a header (and the track)."""
@@ -309,7 +320,11 @@ class Logger:
         self._queue(self.enc.encode_event(kind, text, t_ms), True)
 
     def track(self, waypoints, track_id=""):
-        """Log the track (written again at the start of every later part of this session)."""
+        """Log the track (written again at the start of every later part of this session).
+        `waypoints`: a list of waypoints, or a track.Track (its .waypoints and .name)."""
+        if hasattr(waypoints, "waypoints"):
+            track_id = track_id or getattr(waypoints, "name", "") or ""
+            waypoints = waypoints.waypoints
         self._track = self.enc.encode_track(waypoints, track_id)
         if self.level >= 2:
             self._dropped(True)

@@ -99,6 +99,9 @@ def plot_xte(d, path):
     fig, ax = plt.subplots(figsize=(10, 4))
     t = [r.t_s for r in d.controls]
     ax.plot(t, [r.xte_m for r in d.controls], lw=0.8, label="cross-track error (+ = starboard)")
+    if any(getattr(r, "path_xte_m", 0.0) for r in d.controls):
+        ax.plot(t, [r.path_xte_m for r in d.controls], lw=0.7, alpha=0.8,
+                label="against the planned path")
     ax.axhspan(-1.5, 1.5, color="tab:green", alpha=0.1, label="+-1.5 m goal")
     ax.axhline(0, color="k", lw=0.5)
     ax.set_xlabel("time (s)")

@@ -89,6 +89,7 @@ def sailing_records(n, seed=1, t0_ms=(1 << 30) - 60000):
         r.corr_age_s = corr_age
         r.leg = leg
         r.xte_m = 0.4 * math.sin(k / 150.0) + rnd.gauss(0, 0.02)
+        r.path_xte_m = 0.8 * r.xte_m + rnd.gauss(0, 0.01)  # against the rounded corners
         r.heading_cmd_deg = (target + 3.0 + 5.0 * math.sin(k / 150.0) + rnd.gauss(0, 0.3)) % 360.0
         r.speed_cmd_mps = v_cmd
         r.pilot_mode = 1

@@ -115,3 +115,71 @@ def test_full_flash_degrades_and_deletes_oldest():
         T.true("event 1900" in evs, "events still logged after control records stopped")
     finally:
         _rmtree(d)
+
+
+class _Track:
+    def __init__(self):
+        self.name = "loop"
+        self.waypoints = [_Wp(514950000, 36100000), _Wp(514960000, 36110000)]
+
+
+class _Wp:
+    def __init__(self, lat, lon):
+        self.lat_e7 = lat
+        self.lon_e7 = lon
+        self.speed_mps = 1.5
+        self.name = ""
+        self.radius_m = None
+
+
+def test_application_interface():
+    from trackpilot.fix import Fix
+
+    d = _tmpdir()
+    try:
+        calls = []
+
+        def statvfs(path):
+            calls.append(path)
+            return (4096, 4096, 1000, 900, 900, 0, 0, 0, 0, 255)  # 3.7 MB free
+
+        lg = Logger(d, max_file_bytes=100000, min_free_bytes=50000, flush_ms=500,
+                    statvfs=statvfs)
+        T.eq(lg.low_water_bytes, 50000)
+        lg.open_session("1.2.3", "cafe", "loop", "watchdog", 77)
+        T.eq(calls[0], d)
+        lg.track(_Track())
+        fix = Fix()
+        fix.t_ms = 1234
+        fix.itow_ms = 5000
+        fix.pos_valid = True
+        fix.lat_e7 = 514951111
+        fix.lat_hp = -42
+        fix.lon_e7 = 36101111
+        fix.lon_hp = 17
+        fix.rtk = 3
+        fix.num_sv = 27
+        fix.heading_valid = True
+        fix.heading_deg = 123.45
+        fix.heading_acc_deg = 0.3
+        rec = lg.rec
+        rec.fill_fix(fix)
+        rec.xte_m = 0.37
+        rec.path_xte_m = -0.12
+        lg.control(rec)
+        lg.event("BOOT", "hello", 1234)
+        lg.close()
+        recs = _decode_dir(d)[0][1]
+        T.eq([r.type for r in recs], ["header", "track", "control", "event"])
+        T.eq(recs[0].get("fw"), "1.2.3")
+        T.eq(recs[0].get("reset"), "watchdog")
+        T.eq(recs[1].track_id, "loop")
+        T.eq(len(recs[1].waypoints), 2)
+        c = recs[2]
+        T.eq((c.t_ms, c.itow_ms, c.lat_e7, c.lat_hp, c.lon_e7, c.lon_hp, c.rtk, c.num_sv),
+             (1234, 5000, 514951111, -42, 36101111, 17, 3, 27))
+        T.true(c.pos_valid and c.heading_valid and not c.vel_valid)
+        T.near(c.heading_deg, 123.45, 0.006)
+        T.near(c.path_xte_m, -0.12, 0.006)
+    finally:
+        _rmtree(d)
