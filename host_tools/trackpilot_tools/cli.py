@@ -15,6 +15,8 @@ COMMANDS = [
     ("replay", "trackpilot_tools.replay_cmd", "replay a log through the firmware core"),
     ("hmi", "trackpilot_tools.hmi_cmd", "preview the HMI pages"),
     ("deploy", "trackpilot_tools.device_cmd", "install the firmware on an ESP32"),
+    ("upload", "trackpilot_tools.upload_cmd", "put a track on a running board (maintenance state, verified)"),
+    ("pull", "trackpilot_tools.pull_cmd", "fetch the board's logs, resumably and verified"),
 ]
 
 
