@@ -298,9 +298,11 @@ class St2000:
     def _on_mode_change(self, old, t_ms):
         new = self.mode
         asked = self._want is not None and new == self._want
-        self._event(EV_MODE, t_ms, "%s -> %s (%s)" % (
-            st.MODE_NAMES[old] if old is not None else "unknown", st.MODE_NAMES[new],
-            "asked" if asked else "unasked"))
+        if old is None:
+            self._event(EV_MODE, t_ms, "pilot found in %s" % st.MODE_NAMES[new])
+        else:
+            self._event(EV_MODE, t_ms, "%s -> %s (%s)" % (
+                st.MODE_NAMES[old], st.MODE_NAMES[new], "asked" if asked else "unasked"))
         if asked:
             self._mode_confirmed(t_ms)
         elif self.commanding() and old is not None:
