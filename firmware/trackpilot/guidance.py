@@ -155,7 +155,7 @@ class LosLaw:
         "alos_max_deg": (20.0, "deg", 0.0, 45.0, "clamp of the adaptive crab estimate"),
         "alos_zone_m": (5.0, "m", 0.1, 100.0, "adapt only within this distance of the path"),
         "clip_deg": (45.0, "deg", 5.0, 120.0, "clip of the relative command (heading_cmd - heading)"),
-        "max_turn_rate_dps": (10.0, "deg/s", 1.0, 60.0, "slow down so U / r stays below this (0 = off)"),
+        "max_turn_rate_dps": (10.0, "deg/s", 0.0, 60.0, "slow down so U / r stays below this (0 = off)"),
         "speed_tc_s": (5.0, "s", 0.0, 60.0, "surge lag: speed changes start this many seconds early"),
         "min_speed_mps": (0.3, "m/s", 0.0, 3.0, "floor of the turn slow-down"),
     }
