@@ -167,7 +167,6 @@ def test_skip_and_back():
 
 def test_waypoint_radius_advances():
     trk = track_from_m([(0, 0, 2.0), (0, 100, 2.0, "a,12"), (100, 100, 1.0)])
-    from trackpilot.track import parse_track_csv  # noqa
     t.eq(trk.waypoints[1].radius_m, 12.0)
     prog = Progress(trk)
     _at(prog, 0.0, 50.0)
