@@ -46,6 +46,9 @@ def summarize_run(res, meta):
     modes = [(t, v) for t, n, v in res["outputs"] if n == "mode"]
     d, fw, files = _fw_log(out)
     geom = res["geom"]
+    path_x = []
+    if d is not None and d.controls and hasattr(d.controls[0], "path_xte_m"):
+        path_x = [c.path_xte_m for c in d.controls if c.mode == 1 and c.pos_valid]
     summ = {
         **meta,
         "stop_reason": res["stop_reason"],
@@ -61,6 +64,7 @@ def summarize_run(res, meta):
         "truth_xte_straights": {k: _r(v) for k, v in stats(straight).items()},
         "truth_xte_turns": {k: _r(v) for k, v in stats(turns).items()},
         "settling_distance_m": _r(settle, 1),
+        "fw_xte_vs_planned_path": {k: _r(v) for k, v in stats(path_x).items()},
         "firmware_log": {k: v for k, v in (fw or {}).items()},
         "firmware_log_files": [os.path.relpath(f, out) for f in files],
         "keystrokes_received_by_pilot": res.get("pilot_keys_by_sender"),
@@ -84,6 +88,7 @@ def write_summary(summ, out):
     s = summ["truth_xte_straights"]
     tu = summ["truth_xte_turns"]
     fw = summ["firmware_log"] or {}
+    pp = summ["fw_xte_vs_planned_path"]
     lines = [
         "# Simulated run: %s" % summ.get("track"),
         "",
@@ -100,7 +105,9 @@ def write_summary(summ, out):
         "| ... in turns | %s / %s / %s m |" % (tu.get("rms_m"), tu.get("p95_m"), tu.get("max_m")),
         "| time within 1.5 m | %s %% |" % t.get("within_1p5_pct"),
         "| settling distance | %s m |" % summ["settling_distance_m"],
-        "| firmware's own xte, RMS / max | %s / %s m |" % (fw.get("xte_rms_m"), fw.get("xte_max_abs_m")),
+        "| firmware's own xte vs track, RMS / max | %s / %s m |" % (fw.get("xte_rms_m"), fw.get("xte_max_abs_m")),
+        "| firmware's xte vs its planned path, RMS / p95 / max | %s / %s / %s m |" % (
+            pp.get("rms_m"), pp.get("p95_m"), pp.get("max_m")),
         "| keystrokes (firmware log / pilot accepted) | %s / %s |" % (fw.get("keystrokes"), summ["pilot_keys_accepted"]),
         "| alarms (firmware log) | %s |" % (fw.get("alarms"),),
         "| mode changes | %s |" % " -> ".join("%s@%.0fs" % (v, t_) for t_, v in summ["mode_changes"]),
