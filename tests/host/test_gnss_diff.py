@@ -272,3 +272,36 @@ def test_generated_epochs(tmp_path):
     hp = [r for t, r in reference(path.read_bytes()) if t == "NAV-HPPOSLLH"]
     for f, r in zip(ubx_fixes, hp):
         assert abs(f["lat"] - r.lat) < 1e-12 and abs(f["lon"] - r.lon) < 1e-12
+
+
+F32 = Path(__file__).resolve().parents[2] / "build" / "micropython-f32" / "micropython"
+
+
+@pytest.mark.skipif(not F32.exists(), reason="float32 MicroPython not built (make f32)")
+def test_float32_build_prints_the_same(tmp_path, monkeypatch):
+    """Message output is integer-formatted: a single-precision interpreter prints the same bytes.
+    Fix floats agree within 1 cm / 0.01 deg / 1 cm/s; positions (ints) exactly."""
+    gen = tmp_path / "generated.bin"
+    gen.write_bytes(b"".join(_generated()))
+    paths = CAPTURES + [gen]
+    double = {p: (run_decode(p)[0], run_decode(p, fixes=True)[0]) for p in paths}
+    monkeypatch.setenv("MICROPYTHON", str(F32))
+    nfix = 0
+    for p in paths:
+        msgs, fixes = run_decode(p)[0], run_decode(p, fixes=True)[0]
+        assert msgs == double[p][0], p.name
+        a = [json.loads(x) for x in fixes.splitlines()]
+        b = [json.loads(x) for x in double[p][1].splitlines()]
+        assert len(a) == len(b)
+        for fa, fb in zip(a, b):
+            for k in fa:
+                if k in ("h_acc", "sog"):
+                    assert abs(fa[k] - fb[k]) < 0.01, (k, fa[k], fb[k])
+                elif k in ("heading", "heading_acc", "cog"):
+                    assert abs(fa[k] - fb[k]) < 0.01, (k, fa[k], fb[k])
+                else:
+                    assert fa[k] == fb[k], (k, fa[k], fb[k])
+            nfix += 1
+    print("float32 vs double: %d files print identical messages; %d fixes agree" % (len(paths),
+                                                                                 nfix))
+    assert nfix >= 40
