@@ -61,3 +61,11 @@ def test_reset_restarts_the_firmware(tmp_path):
     assert res["resets"] == 1 and res["failure"] is None
     assert [o for o in res["outputs"] if o[1] == "mode"][-1][2] == "STANDBY"
     assert r.pilot.mode == 2  # the pilot is left as it was
+
+
+def test_esp_idf_style_rx_timeout_batches_bus_bytes(tmp_path):
+    r, res = run(tmp_path, "b", duration_s=8, overrides={"seatalk": {"rx_timeout_chars": 10}})
+    assert res["failure"] is None and r.pilot.mode == 2  # the Auto key still got through
+    r1, res1 = run(tmp_path, "b1", duration_s=8)
+    # 8 status datagrams of 4 + 9 bytes: one step per byte, or one per datagram
+    assert res1["steps"] - res["steps"] >= 8 * 11

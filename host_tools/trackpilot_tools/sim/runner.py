@@ -115,6 +115,8 @@ class SimRun:
         # deliveries to the firmware: heap of (t_ms, seq, dev, bytes)
         self.deliv = []
         self.deliv_seq = 0
+        self._st_rx_buf = bytearray()
+        self._st_rx_last = None
         self.proc = None
         self.fw_t0_ms = 0  # sim time at which the current firmware process started (resets)
         self.fw_wake_ms = None  # sim time
@@ -146,7 +148,19 @@ class SimRun:
         heapq.heappush(self.deliv, (t_ms, self.deliv_seq, dev, data))
 
     def _fw_rx_seatalk(self, t_us, byte):
-        self.deliver(P.DEV_SEATALK, t_us, bytes((byte,)))
+        tout = self.p["seatalk"]["rx_timeout_chars"]
+        if not tout:
+            self.deliver(P.DEV_SEATALK, t_us, bytes((byte,)))
+            return
+        # ESP-IDF style: bytes reach the driver once the line has been idle `tout` characters
+        self._st_rx_buf.append(byte)
+        self._st_rx_last = t_us
+        self.sched.at(t_us + tout * self.bus.char_us, self._st_rx_flush, t_us)
+
+    def _st_rx_flush(self, t_us, stamp):
+        if stamp == self._st_rx_last and self._st_rx_buf:
+            self.deliver(P.DEV_SEATALK, t_us, bytes(self._st_rx_buf))
+            self._st_rx_buf = bytearray()
 
     def send_input(self, t_ms, line):
         self.events.append((t_ms / 1000.0, "input", line))
