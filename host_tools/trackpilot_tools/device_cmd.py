@@ -317,7 +317,22 @@ for d in %r:
 """
 
 
+def write_source_package_json():
+    """firmware/package.json: `mpremote mip install firmware/package.json` installs the sources
+    (not precompiled; fine on a board with PSRAM). Regenerate after adding a module."""
+    urls = []
+    for pkg, src in sources():
+        rel = "trackpilot/" + src.name if pkg == "trackpilot" else "../hmi/tphmi/" + src.name
+        urls.append([pkg + "/" + src.name, rel])
+    path = FIRMWARE_DIR / "package.json"
+    path.write_text(json.dumps({"version": _fw_version(), "urls": urls, "deps": []}, indent=1) + "\n")
+    return path
+
+
 def deploy(args):
+    if args.update_package_json:
+        print("wrote %s" % write_source_package_json())
+        return 0
     out_dir = Path(args.out)
     files = build(out_dir)
     if args.dry_run:
@@ -377,4 +392,6 @@ def add_parser(p):
     p.add_argument("--dry-run", action="store_true", help="only build into --out; no board needed")
     p.add_argument("--no-reset", action="store_true",
                    help="do not reset the board after copying (the app resumes with the old code)")
+    p.add_argument("--update-package-json", action="store_true",
+                   help="only rewrite firmware/package.json (the mip source install) from the module list")
     p.set_defaults(func=_run)

@@ -39,3 +39,13 @@ def test_mpy_version_decoding():
     # unix x64 port of MicroPython 1.29: _mpy 2822 = v6.3, arch 2 (x64)
     assert device_cmd.device_mpy_version(2822) == (6, 3, 2)
     assert device_cmd.mpy_cross_version() == (6, 3)
+
+
+def test_firmware_package_json_lists_every_module():
+    # `mpremote mip install firmware/package.json` installs the sources; it must not go stale
+    pkg = json.loads((ROOT / "firmware" / "package.json").read_text())
+    targets = sorted(t for t, _ in pkg["urls"])
+    want = sorted("%s/%s" % (p, s.name) for p, s in device_cmd.sources())
+    assert targets == want, "regenerate firmware/package.json (docs/DEVICE.md)"
+    for target, src in pkg["urls"]:
+        assert (ROOT / "firmware" / src).resolve().is_file(), src
