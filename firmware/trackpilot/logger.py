@@ -326,6 +326,8 @@ class Logger:
             track_id = track_id or getattr(waypoints, "name", "") or ""
             waypoints = waypoints.waypoints
         self._track = self.enc.encode_track(waypoints, track_id)
+        if not self.session:
+            return  # before start(): the first part writes it after its header
         if self.level >= 2:
             self._dropped(True)
             return

@@ -146,9 +146,10 @@ def test_application_interface():
         lg = Logger(d, max_file_bytes=100000, min_free_bytes=50000, flush_ms=500,
                     statvfs=statvfs)
         T.eq(lg.low_water_bytes, 50000)
+        lg.track(_Track())  # the app loads the track before the session starts
+        lg.event("TRACK", "loaded", 5)
         lg.open_session("1.2.3", "cafe", "loop", "watchdog", 77)
         T.eq(calls[0], d)
-        lg.track(_Track())
         fix = Fix()
         fix.t_ms = 1234
         fix.itow_ms = 5000
@@ -170,12 +171,12 @@ def test_application_interface():
         lg.event("BOOT", "hello", 1234)
         lg.close()
         recs = _decode_dir(d)[0][1]
-        T.eq([r.type for r in recs], ["header", "track", "control", "event"])
+        T.eq([r.type for r in recs], ["header", "track", "event", "control", "event"])
         T.eq(recs[0].get("fw"), "1.2.3")
         T.eq(recs[0].get("reset"), "watchdog")
         T.eq(recs[1].track_id, "loop")
         T.eq(len(recs[1].waypoints), 2)
-        c = recs[2]
+        c = recs[3]
         T.eq((c.t_ms, c.itow_ms, c.lat_e7, c.lat_hp, c.lon_e7, c.lon_hp, c.rtk, c.num_sv),
              (1234, 5000, 514951111, -42, 36101111, 17, 3, 27))
         T.true(c.pos_valid and c.heading_valid and not c.vel_valid)
