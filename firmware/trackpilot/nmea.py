@@ -304,7 +304,7 @@ def parse_ddmm_e7(buf, a, b, hemi):
 
 
 def format_sentence(body):
-    """`GPGGA,...` (bytes, without $ and checksum) -> full sentence bytes with CRLF (tools, tests)."""
+    """`GPGGA,...` (bytes, no $ and checksum) -> full sentence bytes with CRLF (tools, tests)."""
     x = checksum(body, 0, len(body))
     return b"$" + body + b"*" + bytes((_HEX[x >> 4], _HEX[x & 15])) + b"\r\n"
 

@@ -1,4 +1,4 @@
-"""`trackpilot gnss ...`: look at what a GNSS receiver really sends, with the firmware's own parser.
+"""`trackpilot gnss ...`: see what a GNSS receiver really sends, with the firmware's own parser.
 
     trackpilot gnss decode capture.ubx            # one JSON object per message
     trackpilot gnss decode capture.ubx --fixes    # one JSON object per completed epoch (Fix)

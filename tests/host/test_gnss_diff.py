@@ -118,7 +118,8 @@ def reference(raw):
 
 def decode(path, fixes=False, offset_deg=0.0, chunk=64):
     out, err = run_decode(path, fixes=fixes, offset_deg=offset_deg, chunk=chunk)
-    return [json.loads(line) for line in out.splitlines()], json.loads(err.strip().splitlines()[-1])
+    stats = json.loads(err.strip().splitlines()[-1])
+    return [json.loads(line) for line in out.splitlines()], stats
 
 
 def compare(ours, ref):

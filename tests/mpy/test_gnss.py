@@ -164,7 +164,8 @@ def test_epoch_timeout():
 
 def test_nmea_rtk_quality_and_utc_epochs():
     fix, gp = _parser()
-    gga4 = nmea(b"GNGGA,120000.20,5129.4000000,N,00336.7407000,E,4,24,0.6,1.234,M,45.678,M,1.0,0000")
+    gga4 = nmea(b"GNGGA,120000.20,5129.4000000,N,00336.7407000,E,4,24,0.6,1.234,M,45.678,M,"
+                b"1.0,0000")
     rmc = nmea(b"GNRMC,120000.20,A,5129.4000000,N,00336.7407000,E,3.000,271.5,221126,,,R,V")
     gga5 = nmea(b"GPGGA,120000.40,5129.4000000,S,00336.7407000,W,5,12,0.9,2.0,M,45.0,M,,")
     gga0 = nmea(b"INGGA,120000.60,,,,,0,00,99.99,,,,,,")
@@ -224,7 +225,8 @@ def test_mixed_ubx_nmea_epoch_and_late_nmea():
     _feed(gp, gga)
     t.eq(gp.stats.late, 1)
     # a GGA of another second while the UBX epoch is open closes it
-    t.eq(_feed(gp, relpos(1200) + nmea(b"GNGGA,100001.00,5129.4,N,00336.7,E,1,5,1.0,1.0,M,45.0,M,,")), 1)
+    gga1 = nmea(b"GNGGA,100001.00,5129.4,N,00336.7,E,1,5,1.0,1.0,M,45.0,M,,")
+    t.eq(_feed(gp, relpos(1200) + gga1), 1)
 
 
 MIXED = None

@@ -92,7 +92,8 @@ def test_framing_allocates_nothing():
     from trackpilot.ubxcfg import ubx_frame
     gp = gnss.GnssParser(Fix())
     data = (nmea(b"GPGSV,3,1,11,01,03,161,40,03,35,107,32,04,67,055,23,06,51,291,30") +
-            ubx_frame(0x01, 0x35, bytes(1300)) + ubx_frame(0x01, 0x35, bytes(700)) + rtcm3(bytes(200)) + b"\x00\x13garbage\xb5\x62" +
+            ubx_frame(0x01, 0x35, bytes(1300)) + ubx_frame(0x01, 0x35, bytes(700)) +
+            rtcm3(bytes(200)) + b"\x00\x13garbage\xb5\x62" +
             nmea(b"GPGSA,A,3,01,03,,,,,,,,,,,1.5,0.8,1.2") + nmea(b"GPHDT,bad,T"))
     gp.feed(data, len(data), 0)
     micropython.heap_lock()
