@@ -16,11 +16,11 @@ Usage:
     asyncio.run(app.run())
 """
 import gc
-import sys
 
 from trackpilot import VERSION
 from trackpilot import modes as M
-from trackpilot.compat import ticks_diff, wrap180, wrap360
+from trackpilot import seatalk
+from trackpilot.compat import ticks_diff, wrap180
 from trackpilot.fix import RTK_FIXED, RTK_FLOAT, RTK_NAMES, RTK_SINGLE, Fix
 
 try:
@@ -52,14 +52,13 @@ class App:
         pcfg = cfg["pilot"]
         odd = seatalk.ODD_KNAUF if pcfg["odd_rule"] == "knauf" else seatalk.ODD_DOTNET
         self.framer = seatalk.Framer()
-        self.stlink = stlink.Link(rand=wiring.rand)
-        self.pilot = st2000.Pilot(
-            sender=pcfg["sender_id"],
-            key_interval_ms=pcfg["key_interval_ms"],
-            status_timeout_ms=pcfg["status_timeout_ms"],
-            odd_rule=odd,
-        )
-        self.motor = motor.MotorLink(cfg["motor"])
+        self.stlink = stlink.StLink(framer=self.framer, rand=wiring.rand)
+        self.pilot = st2000.St2000.from_config(self.stlink.send, pcfg)
+        self.pilot.odd_rule = odd
+        self.stlink.on_datagram = self.pilot.on_datagram
+        self.motor = motor.MotorLink.from_config(cfg["motor"])
+        self.alarm_reason = ""
+        self._pilot_action = None
         self.law = guidance.make_law(cfg["guidance"], bcfg)
         self.guidance_out = None
         self.track = None
@@ -87,6 +86,8 @@ class App:
         self._st_wake = asyncio.Event()
         self.seatalk_writes = 0
         self.last_state_save_ms = None
+        self.ref_lat_e7 = 0  # the boat's reference point (lever arm applied), last epoch
+        self.ref_lon_e7 = 0
 
     # ------------------------------------------------------------------ track and state
     def load_track(self, path):
@@ -106,7 +107,9 @@ class App:
             self.event("TRACK", msg)
             return False, msg
         self.track = new
-        self.progress = progress.Progress(new)
+        # the seed baseline uses the plain seed leg-advance rule (BOAT_AND_BENCHMARK.md)
+        rule = progress.RULE_SEED if self.cfg["guidance"]["law"] == "seed" else progress.RULE_ROBUST
+        self.progress = progress.Progress(new, rule)
         self.track_id = track.track_id(text)
         self.event("TRACK", "loaded %s: %d waypoints, id %s" % (path, len(new.waypoints), self.track_id))
         for w in warnings:
@@ -154,11 +157,28 @@ class App:
     def drain_events(self):
         for kind, text in self.mm.drain_events():
             self.event(kind, text)
-        for kind, text in self.pilot.drain_events():
-            self.on_pilot_event(kind, text)
+            if kind == "ALARM":
+                self.alarm_reason = text
+        while True:
+            ev = self.pilot.pop_event()
+            if ev is None:
+                break
+            self.on_pilot_event(ev[0], ev[1], ev[2])
+        while True:
+            ev = self.motor.pop_event()
+            if ev is None:
+                break
+            self.on_motor_event(ev[0], ev[1], ev[2])
+        hmi = getattr(self.w, "hmi", None)
+        if hmi is not None:
+            for kind, text in hmi.drain_events():
+                self.event(kind, text)
+        for kind, text in self.mm.drain_events():  # reactions above may have changed modes
+            self.event(kind, text)
+            if kind == "ALARM":
+                self.alarm_reason = text
 
-    def on_pilot_event(self, kind, text):
-        t = self.clock()
+    def on_pilot_event(self, kind, t, text):
         self.event("PILOT", "%s: %s" % (kind, text))
         if kind == "TAKEOVER":
             self.mm.takeover(t, text)
@@ -166,8 +186,20 @@ class App:
             self.mm.pilot_hang(t, text)
         elif kind == "RECOVERED":
             self.mm.pilot_recovered(t)
-        elif kind == "UNRECOVERABLE":
-            self.mm.pilot_lost(t, text)
+        elif kind in ("UNRECOVERABLE", "ENGAGE_FAILED"):
+            if self.mm.mode == M.AUTO:
+                self.mm.pilot_lost(t, text)
+
+    def on_motor_event(self, kind, t, text):
+        self.event("MOTOR", "%s: %s" % (kind, text))
+        if kind == "MOTOR_LINK_LOST":
+            self.mm.motor_link(t, False, text)
+        elif kind == "MOTOR_LINK_OK":
+            self.mm.motor_link(t, True, text)
+        elif kind == "LOW_BATTERY":
+            self.mm.set_alarm(M.AL_LOW_BATTERY, True, text)
+        elif kind == "BATTERY_OK":
+            self.mm.set_alarm(M.AL_LOW_BATTERY, False, text)
 
     # ------------------------------------------------------------------ the person's commands
     def preconditions(self, t_ms):
@@ -183,11 +215,11 @@ class App:
             return "RTK %s, need %s" % (RTK_NAMES[fix.rtk], RTK_NAMES[self.engage_min_rtk])
         if not fix.heading_valid:
             return "no valid dual-antenna heading"
-        if not self.pilot.answering(t_ms):
+        if not self.pilot.status_fresh(t_ms):
             return "tiller pilot not answering on SeaTalk"
-        if self.pilot.mode_name() == "calibration":
-            return "tiller pilot in calibration"
-        if self.cfg["motor"]["link"] == "rs232" and self.cfg["motor"]["expect_replies"] and not self.motor.link_ok(t_ms):
+        if self.pilot.mode not in (seatalk.MODE_STANDBY, seatalk.MODE_AUTO):
+            return "tiller pilot in %s mode" % seatalk.MODE_NAMES[self.pilot.mode]
+        if self.cfg["motor"]["link"] == "rs232" and self.cfg["motor"]["expect_replies"] and self.motor.link_ok is not True:
             return "motor link down"
         max_age = self.cfg["modes"]["correction_max_age_s"]
         if max_age > 0:
@@ -201,7 +233,7 @@ class App:
         t = self.clock()
         if name == "STANDBY":
             self.mm.standby(t, source)
-            self.pilot.standby(t)
+            self.apply_pilot(t)
         elif name == "ENGAGE":
             if self.progress is not None and self.fix.pos_valid and self.progress.finished:
                 self.progress.restart()
@@ -209,9 +241,10 @@ class App:
             ok, why = self.mm.engage(t, refusal, source)
             self.refusal = why
             if ok:
-                self.progress.join_nearest(self.fix.lat_e7, self.fix.lon_e7)
+                self.progress.join_nearest(self.ref_lat_e7, self.ref_lon_e7)
                 self.law.reset()
-                self.pilot.engage(t)
+                self._pilot_action = None
+                self.apply_pilot(t)
                 self.event("NAV", "joined leg %d" % self.progress.leg)
         elif name in ("NEXT_WP", "PREV_WP"):
             if self.progress is not None:
@@ -242,7 +275,7 @@ class App:
 
     def control_step(self, t_ms):
         """Once per GNSS epoch: navigate, guide, command the pilot and the motor, log."""
-        from trackpilot.geo import apply_lever_arm
+        from trackpilot.geo import apply_lever_arm_hp
 
         fix = self.fix
         self.last_epoch_ms = t_ms
@@ -253,11 +286,14 @@ class App:
         out = None
         if self.progress is not None and fix.pos_valid and fix.heading_valid:
             bcfg = self.cfg["boat"]
-            lat_e7, lon_e7 = apply_lever_arm(
-                fix.lat_e7, fix.lon_e7, fix.heading_deg, bcfg["antenna_fwd_m"], bcfg["antenna_stbd_m"]
+            lat_e7, lon_e7, lat_hp, lon_hp = apply_lever_arm_hp(
+                fix.lat_e7, fix.lon_e7, fix.lat_hp, fix.lon_hp, fix.heading_deg,
+                bcfg["antenna_fwd_m"], bcfg["antenna_stbd_m"]
             )
+            self.ref_lat_e7 = lat_e7
+            self.ref_lon_e7 = lon_e7
             leg_before = self.progress.leg
-            self.progress.update(lat_e7, lon_e7)
+            self.progress.update(lat_e7, lon_e7, lat_hp, lon_hp)
             if self.progress.leg != leg_before:
                 self.event("NAV", "leg %d -> %d" % (leg_before, self.progress.leg))
                 self.save_state(t_ms)
@@ -268,20 +304,38 @@ class App:
                 if self.progress.finished:
                     mm.arrived(t_ms, self.progress.finish_reason)
         self.guidance_out = out
+        self.drain_events()
         # the pilot
-        if mm.pilot == M.PILOT_STEER and out is not None and fix.heading_valid:
+        self.apply_pilot(t_ms)
+        if mm.pilot == M.PILOT_STEER and out is not None and fix.heading_valid and self.pilot.commanding():
             # relative to the pilot's own compass: cancels its compass error (seed report 4.7)
             self.relative_cmd_deg = wrap180(out.heading_cmd_deg - fix.heading_deg)
             self.pilot.steer_to(self.relative_cmd_deg, t_ms)
-        elif mm.pilot == M.PILOT_STANDBY:
-            self.pilot.standby(t_ms)
         # the motor
         self.rpm_cmd = self.motor_rpm(out)
-        self.motor.set_rpm(self.rpm_cmd, t_ms)
+        self.motor.set_rpm(self.rpm_cmd)
         self.drain_events()
         self.log_control(t_ms, out)
         if self.last_state_save_ms is None or ticks_diff(t_ms, self.last_state_save_ms) > 10000:
             self.save_state(t_ms)
+        self._st_wake.set()
+
+    def apply_pilot(self, t_ms):
+        """Turn the mode machine's pilot decision into driver commands, once per change."""
+        want = self.mm.pilot
+        if want == self._pilot_action:
+            return
+        self._pilot_action = want
+        if want == M.PILOT_STANDBY:
+            self.pilot.standby(t_ms)
+        elif want == M.PILOT_STEER:
+            if not self.pilot.commanding():
+                self.pilot.engage(t_ms)
+        elif want == M.PILOT_LEAVE:
+            if self.pilot.commanding():
+                self.pilot.let_go(t_ms, "mode %s" % self.mm.state_text())
+        # PILOT_HOLD: the pilot keeps its course in Auto; no new steps are sent.
+        # PILOT_RECOVER: the driver runs Standby -> Auto -> re-step itself (st2000.py).
         self._st_wake.set()
 
     def motor_rpm(self, out):
@@ -326,14 +380,14 @@ class App:
         rec.speed_cmd_mps = out.speed_cmd_mps if out else 0.0
         rec.path_xte_m = getattr(out, "path_xte_m", rec.xte_m) if out else rec.xte_m
         ps = self.pilot
-        rec.pilot_mode = ps.mode_code()
-        rec.pilot_heading_deg = ps.compass_deg
-        rec.pilot_course_deg = ps.course_deg
-        rec.rudder_deg = ps.rudder_deg
-        rec.keystrokes = ps.keys_sent
-        rec.rpm_cmd = self.rpm_cmd
-        rec.rpm = self.motor.rpm
-        rec.battery_v = self.motor.battery_v
+        rec.pilot_mode = ps.mode if ps.mode is not None else seatalk.MODE_UNKNOWN
+        rec.compass_deg = ps.heading_deg or 0.0
+        rec.locked_deg = ps.course_deg or 0.0
+        rec.rudder_deg = ps.rudder_deg or 0.0
+        rec.keys_sent = ps.keys_sent
+        rec.rpm_set = self.rpm_cmd
+        rec.rpm = self.motor.rpm or 0
+        rec.battery_v = self.motor.battery_v or 0.0
         rec.wind_angle_deg = self.wind.angle_deg
         rec.wind_speed_mps = self.wind.speed_mps
         rec.alarms = self.mm.alarms
@@ -371,11 +425,8 @@ class App:
                 continue
             t = self.clock()
             for i in range(n):
-                b = buf[i]
-                if self.stlink.on_rx(b, t):  # True: not our own echo
-                    if self.framer.feed(b, t):
-                        while self.framer.pending():
-                            self.pilot.on_datagram(self.framer.pop(), t)
+                self.stlink.on_rx(buf[i], t)  # echo check; other bytes -> framer -> pilot
+            self.pilot.poll(t)
             self._st_wake.set()
             self.drain_events()
 
@@ -388,10 +439,7 @@ class App:
         while True:
             self.beat("seatalk_tx")
             t = self.clock()
-            dg = self.pilot.poll(t)  # the driver's next datagram to send, if any
-            while dg is not None:
-                self.stlink.send(dg)
-                dg = self.pilot.poll(t)
+            self.pilot.poll(t)  # stepping, confirmations, timers: queues keystrokes on the link
             act = self.stlink.poll(t)
             kind = act[0]
             if kind == stlink.WRITE:
@@ -415,17 +463,23 @@ class App:
                     await asyncio.wait_for_ms(self._st_wake.wait(), wait_ms)
                 except asyncio.TimeoutError:
                     pass
-            for kind2, text in self.stlink.drain_events():
-                self.event("SEATALK", "%s: %s" % (kind2, text))
-                self.pilot.on_link_event(kind2, t)
+            while True:
+                ev = self.stlink.pop_event()
+                if ev is None:
+                    break
+                if ev[0] != stlink.EV_SENT:
+                    self.event("SEATALK", "%s: %s" % (stlink.EV_NAMES[ev[0]], ev[2]))
+                if ev[0] == stlink.EV_FAILED:
+                    self.pilot.on_send_failed(ev[3], t)
 
     async def task_pilot(self):
         """Timers of the pilot driver: confirmations, hang detection, status timeout."""
         while True:
             self.beat("pilot")
             t = self.clock()
-            self.pilot.tick(t)
+            self.pilot.poll(t)
             self.drain_events()
+            self.apply_pilot(t)
             self._st_wake.set()
             await asyncio.sleep_ms(100)
 
@@ -440,25 +494,17 @@ class App:
             while True:
                 n = await reader.readinto(mv)
                 if n:
-                    self.motor.on_rx(mv, n, self.clock())
+                    self.motor.feed(mv[:n], self.clock())
 
         if reader is not None:
             asyncio.create_task(rx())
-        was_ok = True
         while True:
             self.beat("motor")
             t = self.clock()
-            frame = self.motor.frame(t)
+            frame = self.motor.poll(t)  # also runs the link-loss and battery timers
             if frame and uart is not None:
                 uart.write(frame)
-            self.w.set_throttle(self.motor.duty())
-            ok = self.motor.link_ok(t) if self.cfg["motor"]["expect_replies"] else True
-            if ok != was_ok:
-                self.mm.motor_link(t, ok, "no reply for %d ms" % self.cfg["motor"]["reply_timeout_ms"])
-                was_ok = ok
-            low = self.motor.low_battery(self.cfg["motor"]["low_battery_v"])
-            if low != bool(self.mm.alarms & M.AL_LOW_BATTERY):
-                self.mm.set_alarm(M.AL_LOW_BATTERY, low, "battery %.1f V" % self.motor.battery_v)
+            self.w.set_throttle(self.motor.duty_u16() / 65535.0)
             self.drain_events()
             await asyncio.sleep_ms(period)
 
@@ -483,7 +529,7 @@ class App:
             active = self.w.estop_active()
             if active and not estop_was:
                 self.mm.estop(t, True)
-                self.pilot.standby(t)
+                self.apply_pilot(t)
                 self.drain_events()
             estop_was = active
             for name, source in self.w.poll_commands(t):
@@ -510,9 +556,8 @@ class App:
             t = self.clock()
             if self.last_epoch_ms is None or ticks_diff(t, self.last_epoch_ms) > self.gnss_stale_ms:
                 self.mm.gnss_quality(t, False, "GNSS stale (no epoch for %d ms)" % self.gnss_stale_ms)
-                if self.mm.pilot == M.PILOT_STANDBY:
-                    self.pilot.standby(t)
                 self.drain_events()
+                self.apply_pilot(t)
             dead = self.dead_tasks(t)
             if dead:
                 self.event("FAULT", "task not alive: %s; watchdog not fed" % ",".join(dead))
@@ -563,7 +608,3 @@ class App:
         for c in json.dumps(self.cfg):
             h = (h * 31 + ord(c)) & 0xFFFFFFFF
         return h
-
-
-def _unused():  # keep names referenced for linters
-    return wrap360, sys

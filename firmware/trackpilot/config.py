@@ -34,10 +34,8 @@ SCHEMA = {
     },
     "guidance": {
         "law": ("los", "s", ("seed", "los"), None),
-        "seed_blend_m": (30.0, "f", 1.0, 200.0),
-        "seed_k_y_deg_per_m": (3.0, "f", 0.0, 30.0),
-        "seed_k_psi": (1.0, "f", 0.0, 5.0),
-        "seed_clip_deg": (30.0, "f", 1.0, 90.0),
+        # plus "<law>_<parameter>" for every parameter of every law, from guidance.py's PARAMS
+        # tables (seed_k_y_deg_per_m, los_lookahead_gain, ...): see _add_law_params below
     },
     "modes": {
         "gnss_hold_s": (10.0, "f", 0.0, 120.0),
@@ -138,6 +136,20 @@ SCHEMA = {
 }
 
 
+def _add_law_params():
+    from trackpilot.guidance import LAWS
+
+    sec = SCHEMA["guidance"]
+    for law_name, cls in LAWS.items():
+        for key, spec in cls.PARAMS.items():
+            if law_name == "los" and key == "turn_radius_m":
+                continue  # from boat.min_turn_radius_m
+            sec["%s_%s" % (law_name, key)] = (float(spec[0]), "f", spec[2], spec[3])
+
+
+_add_law_params()
+
+
 def defaults():
     out = {}
     for sec, fields in SCHEMA.items():
@@ -163,6 +175,8 @@ def _check(sec, key, value, spec, errors):
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         errors.append("%s: must be a number, got %r" % (where, value))
         return
+    if kind == "f" and isinstance(value, int):
+        value = float(value)
     if kind == "i" and not isinstance(value, int):
         errors.append("%s: must be a whole number, got %r" % (where, value))
         return
