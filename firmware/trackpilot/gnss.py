@@ -919,8 +919,10 @@ class GnssParser:
         if not self._utc_join(r.utc_ms):
             return
         q = r.quality
-        if q is None or r.lat_e7 is None or r.lon_e7 is None:
-            self.stats.bad_field += 1
+        if q is None:
+            q = 0
+        if q and (r.lat_e7 is None or r.lon_e7 is None):
+            self.stats.bad_field += 1  # a fix without a (readable) position
             q = 0
         ok = q in (1, 2, 3, 4, 5)
         rtk = RTK_FIXED if q == 4 else RTK_FLOAT if q == 5 else RTK_SINGLE

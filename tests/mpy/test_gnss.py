@@ -187,6 +187,7 @@ def test_nmea_rtk_quality_and_utc_epochs():
     t.eq(gp.flush(0), 1)
     t.eq(fix.rtk, RTK_NONE)
     t.true(not fix.pos_valid)
+    t.eq(gp.stats.bad_field, 0)  # a no-fix GGA with empty fields is normal, not bad
     # closing on the configured NMEA message: no one-epoch delay
     fix, gp = _parser(close_on=("RMC",))
     t.eq(_feed(gp, gga4 + rmc), 1)
