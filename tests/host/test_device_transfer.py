@@ -188,3 +188,16 @@ def test_cli_errors_for_missing_device_and_bad_file(tmp_path):
     assert p.returncode == 1 and "no such port /dev/nonexistent-tty" in p.stderr
     p = subprocess.run(exe + ["upload", str(tmp_path / "missing.csv")], env=env, capture_output=True, text=True)
     assert p.returncode == 1 and "cannot read" in p.stderr
+
+
+def test_plain_mpremote_soft_reset_is_answered_not_performed(board):
+    # mpremote without `resume` asks for a soft reset; the board must stay up, in maintenance
+    b = board()
+    dev = _dev(b)
+    dev.enter()
+    p = subprocess.run([sys.executable, "-m", "mpremote", "connect", b.port, "exec",
+                        "import trackpilot.xfer as x; x.info()"], capture_output=True, text=True, timeout=30)
+    assert p.returncode == 0 and "'maint': 'ACTIVE" in p.stdout, p.stdout + p.stderr
+    dev.leave()
+    assert _wait_for(lambda: "RUN app run 2" in b.events())
+    assert b.events().count("RUN app run") == 2 and b.alive()
