@@ -31,15 +31,17 @@ def run():
     if _skip_requested(cfg):
         print("trackpilot: skip-app button held, REPL only")
         return
-    import asyncio
-
+    from trackpilot import maint
     from trackpilot.app import App
     from trackpilot.wiring_esp32 import Wiring
 
     wiring = Wiring(cfg)
     app = App(wiring, cfg, problems, reset_cause=wiring.reset_cause())
     app.load_track("/tracks/active.csv")
-    asyncio.run(app.run())
+    # Runs the app; in STANDBY a host's Ctrl-C (mpremote) enters the maintenance state for
+    # transfers (the watchdog stays fed, the state ends by itself, no reset): maint.py.
+    maint.supervise(app, feed=wiring.feed_watchdog, track_path="/tracks/active.csv",
+                    timer_factory=maint.esp32_timer)
 
 
 try:
