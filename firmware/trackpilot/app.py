@@ -579,9 +579,11 @@ class App:
 
     async def run(self):
         t = self.clock()
-        self.log.open_session(VERSION, self.cfg_hash(), self.track_id, self.reset_cause, t)
-        self.event("BOOT", "trackpilot %s, reset cause %s, mode STANDBY (never engages by itself)" % (
-            VERSION, self.reset_cause))
+        self.runs = getattr(self, "runs", 0) + 1
+        cause = self.reset_cause if self.runs == 1 else "restart after maintenance (no reset)"
+        self.log.open_session(VERSION, self.cfg_hash(), self.track_id, cause, t)
+        self.event("BOOT", "trackpilot %s, %s, mode %s (never engages by itself)" % (
+            VERSION, cause, M.MODE_NAMES[self.mm.mode]))
         for p in self.cfg_problems:
             self.event("CONFIG", p)
         for coro in (
