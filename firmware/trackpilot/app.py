@@ -19,7 +19,7 @@ import gc
 
 from trackpilot import VERSION
 from trackpilot import modes as M
-from trackpilot import seatalk
+from trackpilot import ntrip, seatalk
 from trackpilot.compat import ticks_diff, wrap180
 from trackpilot.fix import RTK_FIXED, RTK_FLOAT, RTK_NAMES, RTK_SINGLE, Fix
 
@@ -223,10 +223,24 @@ class App:
             return "motor link down"
         max_age = self.cfg["modes"]["correction_max_age_s"]
         if max_age > 0:
-            age = self.w.correction_age_s(t_ms)
-            if age is None or age > max_age:
-                return "RTK corrections too old (%s s)" % age
+            age = self.correction_age_s(t_ms)
+            if age is None:
+                return "no RTK corrections received"
+            if age > max_age:
+                return "RTK corrections %.0f s old (limit %.0f s)" % (age, max_age)
         return None
+
+    def correction_age_s(self, t_ms):
+        """Age of the last RTCM frame forwarded to the receiver, None if none (or no NTRIP)."""
+        if not self.cfg["ntrip"]["enabled"]:
+            return self.w.correction_age_s(t_ms)
+        s = ntrip.current_session()
+        return s.age_s(t_ms) if s is not None else None
+
+    def gga_bytes(self):
+        from trackpilot import nmea_out
+
+        return nmea_out.gga(self.fix) if self.fix.pos_valid else None
 
     def command(self, name, source="HMI"):
         """A person's command (HMI button, remote box, host)."""
@@ -361,18 +375,10 @@ class App:
     def log_control(self, t_ms, out):
         rec = self.log.rec
         fix = self.fix
+        rec.fill_fix(fix)
         rec.t_ms = t_ms
-        rec.lat_e7 = fix.lat_e7
-        rec.lon_e7 = fix.lon_e7
-        rec.lat_hp = fix.lat_hp
-        rec.lon_hp = fix.lon_hp
-        rec.rtk = fix.rtk
-        rec.pos_valid = fix.pos_valid
-        rec.heading_valid = fix.heading_valid
-        rec.heading_deg = fix.heading_deg
-        rec.sog_mps = fix.sog_mps
-        rec.cog_deg = fix.cog_deg
-        rec.h_acc_m = fix.h_acc_m
+        age = self.correction_age_s(t_ms)
+        rec.corr_age_s = -1.0 if age is None else age
         p = self.progress
         rec.leg = p.leg if p else 0
         rec.xte_m = p.xte_m if p else 0.0
@@ -385,6 +391,7 @@ class App:
         rec.locked_deg = ps.course_deg or 0.0
         rec.rudder_deg = ps.rudder_deg or 0.0
         rec.keys_sent = ps.keys_sent
+        rec.keys_net_deg = getattr(ps, "keys_net_deg", 0)
         rec.rpm_set = self.rpm_cmd
         rec.rpm = self.motor.rpm or 0
         rec.battery_v = self.motor.battery_v or 0.0
@@ -599,6 +606,10 @@ class App:
             self.task_supervisor(),
         ):
             asyncio.create_task(coro)
+        if self.cfg["ntrip"]["enabled"]:
+            # RTK corrections: caster -> GNSS UART (Wi-Fi is brought up by the wiring)
+            asyncio.create_task(ntrip.run_client(self.cfg["ntrip"], self.w.gnss_uart.write, self.clock,
+                                                 gga=self.gga_bytes, events=self.event))
         await self.stop_event.wait()
         self.event("STOP", "application stopped")
         self.log.close()

@@ -12,21 +12,7 @@ except ImportError:  # pragma: no cover
     import uos as os
 
 from trackpilot import simio
-
-
-class XorShift:
-    """Deterministic PRNG for back-off times (same seed, same run)."""
-
-    def __init__(self, seed):
-        self.s = (seed * 2654435761 + 1) & 0x7FFFFFFF or 1
-
-    def __call__(self, lo, hi):
-        s = self.s
-        s ^= (s << 13) & 0x7FFFFFFF
-        s ^= s >> 17
-        s ^= (s << 5) & 0x7FFFFFFF
-        self.s = s or 1
-        return lo + (self.s % (hi - lo + 1))
+from trackpilot.stlink import Prng
 
 
 class Wiring:
@@ -39,7 +25,7 @@ class Wiring:
         self.wind_uart = link.stream(simio.DEV_WIND)
         self.io = link.stream(simio.DEV_IO)
         self.telemetry = link.stream(simio.DEV_TELEMETRY)
-        self.rand = XorShift(seed)
+        self.rand = Prng(seed)  # deterministic back-off: same seed, same run
         self.data_dir = data_dir
         self.log_dir = data_dir + "/log"
         self.state_path = data_dir + "/state.json"
