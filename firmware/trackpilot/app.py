@@ -86,6 +86,7 @@ class App:
         self._st_wake = asyncio.Event()
         self.seatalk_writes = 0
         self.last_state_save_ms = None
+        self.input_period_ms = getattr(wiring, "input_period_ms", 50)  # button sampling
         self.ref_lat_e7 = 0  # the boat's reference point (lever arm applied), last epoch
         self.ref_lon_e7 = 0
 
@@ -402,6 +403,11 @@ class App:
         self.log.control(rec)
 
     # ------------------------------------------------------------------ tasks
+    def grid_ms(self, period_ms):
+        """Sleep so that periodic tasks wake on a common grid of the clock: they then run in the
+        same scheduler pass (fewer wake-ups on the ESP32, fewer lockstep steps in simulation)."""
+        return period_ms - (self.clock() % period_ms)
+
     def beat(self, name):
         self.alive[name] = self.clock()
 
@@ -488,7 +494,7 @@ class App:
             self.drain_events()
             self.apply_pilot(t)
             self._st_wake.set()
-            await asyncio.sleep_ms(100)
+            await asyncio.sleep_ms(self.grid_ms(100))
 
     async def task_motor(self):
         uart = self.w.motor_uart
@@ -513,7 +519,7 @@ class App:
                 uart.write(frame)
             self.w.set_throttle(self.motor.duty_u16() / 65535.0)
             self.drain_events()
-            await asyncio.sleep_ms(period)
+            await asyncio.sleep_ms(self.grid_ms(period))
 
     async def task_wind(self):
         if self.w.wind_uart is None:
@@ -542,20 +548,20 @@ class App:
             for name, source in self.w.poll_commands(t):
                 self.command(name, source)
             self.w.show(self, t)
-            await asyncio.sleep_ms(50)
+            await asyncio.sleep_ms(self.grid_ms(self.input_period_ms))
 
     async def task_logger(self):
         while True:
             self.beat("logger")
             self.log.tick(self.clock())
-            await asyncio.sleep_ms(200)
+            await asyncio.sleep_ms(self.grid_ms(200))
 
     async def task_telemetry(self):
         period = self.cfg["telemetry"]["period_ms"]
         while True:
             self.beat("telemetry")
             self.w.send_status(self, self.clock())
-            await asyncio.sleep_ms(period)
+            await asyncio.sleep_ms(self.grid_ms(period))
 
     async def task_supervisor(self):
         """GNSS staleness, task heartbeats, watchdog, heap watermark."""
@@ -573,7 +579,7 @@ class App:
             used = gc.mem_alloc()
             if used > self.peak_heap:
                 self.peak_heap = used
-            await asyncio.sleep_ms(200)
+            await asyncio.sleep_ms(self.grid_ms(200))
 
     def dead_tasks(self, t):
         # input-driven tasks only beat when bytes arrive; they are checked against their data

@@ -25,6 +25,7 @@ class Wiring:
         self.wind_uart = link.stream(simio.DEV_WIND)
         self.io = link.stream(simio.DEV_IO)
         self.telemetry = link.stream(simio.DEV_TELEMETRY)
+        self.input_period_ms = 100  # inputs arrive as whole, debounced presses (SIM_PROTOCOL.md)
         self.rand = Prng(seed)  # deterministic back-off: same seed, same run
         self.data_dir = data_dir
         self.log_dir = data_dir + "/log"
