@@ -35,7 +35,10 @@ def test_straight_in_cross_current_completes(straight, tmp_path, law):
     assert summ["finished"], (res["stop_reason"], modes(res))
     assert any(m.startswith("AUTO") for m in modes(res))
     assert summ["firmware_log_files"]
-    assert summ["truth_xte_vs_track"]["max_m"] < 5.0
+    # after the first 100 m (settling from the offset while speeding up): bounded; the seed law
+    # keeps its known steady offset in a cross current (about beta / k_y = 1.6 m here)
+    later = [x for _, x, s, _, _ in res["truth_xte"] if s > 100.0]
+    assert later and max(abs(x) for x in later) < 2.5
     assert res["speedup"] > 20
 
 

@@ -162,10 +162,15 @@ def plot_truth(out, geom):
     axs[0].axhline(1.5, color="r", lw=0.5)
     axs[0].axhline(-1.5, color="r", lw=0.5)
     axs[0].set_ylabel("truth xte (m, + stbd)")
-    axs[1].plot(t, col("heading_deg"), lw=0.8, label="true heading")
-    axs[1].plot(t, col("compass_deg"), lw=0.8, label="pilot compass")
-    axs[1].plot(t, col("pilot_course_deg"), lw=0.8, label="pilot locked course")
-    axs[1].set_ylabel("deg")
+    import numpy as np
+
+    def unwrapped(k):
+        return np.degrees(np.unwrap(np.radians(col(k))))
+
+    axs[1].plot(t, unwrapped("heading_deg"), lw=0.8, label="true heading")
+    axs[1].plot(t, unwrapped("compass_deg"), lw=0.8, label="pilot compass")
+    axs[1].plot(t, unwrapped("pilot_course_deg"), lw=0.8, label="pilot locked course")
+    axs[1].set_ylabel("deg (unwrapped)")
     axs[1].legend(fontsize=8)
     axs[2].plot(t, col("sog_mps"), lw=0.8, label="SOG")
     axs[2].plot(t, col("water_speed_mps"), lw=0.8, label="through water")
