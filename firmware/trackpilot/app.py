@@ -86,6 +86,7 @@ class App:
         self._st_wake = asyncio.Event()
         self.seatalk_writes = 0
         self.last_state_save_ms = None
+        self._empty = bytearray(0)
         self.input_period_ms = getattr(wiring, "input_period_ms", 50)  # button sampling
         self.ref_lat_e7 = 0  # the boat's reference point (lever arm applied), last epoch
         self.ref_lon_e7 = 0
@@ -411,9 +412,38 @@ class App:
     def beat(self, name):
         self.alive[name] = self.clock()
 
-    async def task_gnss(self):
-        from trackpilot.gnss import GNSS_EPOCH
+    def _on_gnss_msg(self, kind):
+        from trackpilot import gnss
 
+        if kind == gnss.K_ACK_ACK or kind == gnss.K_ACK_NAK:
+            r = self.gnss.ack
+            out = self.gnss_cfg.on_ack(r.cls, r.id, kind == gnss.K_ACK_ACK, self.clock())
+            if out:
+                self.w.gnss_uart.write(out)
+
+    def gnss_config_poll(self, t_ms):
+        """Receiver configuration (CFG-VALSET, 5 Hz, our messages): resend on timeout, log the end."""
+        from trackpilot import ubxcfg
+
+        s = self.gnss_cfg
+        out = s.poll(t_ms)
+        if out:
+            self.w.gnss_uart.write(out)
+        if s.state != ubxcfg.BUSY and not self._gnss_cfg_reported:
+            self._gnss_cfg_reported = True
+            self.event("GNSS", "receiver configuration %s: %s" % (
+                "done" if s.state == ubxcfg.DONE else "FAILED (running with what it sends)",
+                s.log[-1][1] if s.log else ""))
+
+    async def task_gnss(self):
+        from trackpilot import ubxcfg
+
+        self.gnss_cfg = ubxcfg.ConfigSession(ubxcfg.valset_frames(ubxcfg.rover_items()))
+        self._gnss_cfg_reported = False
+        self.gnss.on_msg = self._on_gnss_msg
+        first = self.gnss_cfg.start(self.clock())
+        if first:
+            self.w.gnss_uart.write(first)
         reader = asyncio.StreamReader(self.w.gnss_uart)
         buf = bytearray(256)
         mv = memoryview(buf)
@@ -567,6 +597,10 @@ class App:
         """GNSS staleness, task heartbeats, watchdog, heap watermark."""
         while True:
             t = self.clock()
+            if self.gnss.feed(self._empty, 0, t):  # an epoch closed by its timeout (no more bytes)
+                self.control_step(t)
+            if hasattr(self, "gnss_cfg"):
+                self.gnss_config_poll(t)
             if self.last_epoch_ms is None or ticks_diff(t, self.last_epoch_ms) > self.gnss_stale_ms:
                 self.mm.gnss_quality(t, False, "GNSS stale (no epoch for %d ms)" % self.gnss_stale_ms)
                 self.drain_events()

@@ -36,5 +36,6 @@ class Fix:
         self.sog_mps = 0.0  # speed over ground
         self.cog_deg = 0.0  # course over ground, 0..360
         self.utc_s = -1  # UTC seconds of day, -1 unknown
+        self.utc_ms = -1  # UTC milliseconds of day (5 Hz epochs need the fraction), -1 unknown
         self.date = 0  # ddmmyy from RMC, 0 unknown
         self.sources = 0  # bit set of the messages that filled this epoch (parser-defined)

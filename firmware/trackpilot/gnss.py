@@ -763,6 +763,7 @@ class GnssParser:
         if utc >= 0 and self._w_utc < 0:
             self._w_utc = utc
             w.utc_s = utc // 1000
+            w.utc_ms = utc
         return True
 
     def _closing(self, kind):
@@ -807,6 +808,7 @@ class GnssParser:
         f.sog_mps = w.sog_mps
         f.cog_deg = w.cog_deg
         f.utc_s = w.utc_s
+        f.utc_ms = w.utc_ms
         f.date = w.date
         f.sources = w.sources
         self._last_itow = w.itow_ms

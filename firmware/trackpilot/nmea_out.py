@@ -51,7 +51,8 @@ def _utc(fix):
     if fix.utc_s is None or fix.utc_s < 0:
         return ""
     s = fix.utc_s
-    return "%02d%02d%02d.00" % (s // 3600, (s // 60) % 60, s % 60)
+    ms = fix.utc_ms if getattr(fix, "utc_ms", -1) >= 0 else s * 1000
+    return "%02d%02d%02d.%02d" % (s // 3600, (s // 60) % 60, s % 60, (ms % 1000) // 10)
 
 
 _QUALITY = {RTK_SINGLE: 1, RTK_FLOAT: 5, RTK_FIXED: 4}
