@@ -46,8 +46,13 @@ def main():
     if opts["--track"]:
         app.load_track(opts["--track"])
     asyncio.run(app.run())
-    sys.stderr.write("sim_main: stopped at t=%d ms, epochs %d, peak heap %d B\n" % (
-        link.t_ms, app.epochs, app.peak_heap))
+    import gc
+
+    gc.collect()
+    sys.stderr.write("sim_main: stopped at t=%d ms, epochs %d, peak heap %d B (live, after a collection), heap now %d B "
+                     "used / %d B free, GC runs %d, max GC pause %d us\n" % (
+                         link.t_ms, app.epochs, app.peak_heap, gc.mem_alloc(), gc.mem_free(),
+                         app.gc_runs, app.gc_max_us))
 
 
 try:
