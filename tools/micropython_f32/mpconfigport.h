@@ -96,15 +96,22 @@
 #define MICROPY_PY_SYS_PLATFORM             "linux"
 #define MICROPY_PY_SYS_EXC_INFO             (1)
 
-// Modules that live in extmod/ (not shipped in the sdist) are off.
+// Modules that live in extmod/ (not shipped in the sdist): json, binascii, random, heapq and
+// hashlib (sha256 only) are our own small versions in this directory (mod*.c); the rest are off.
 #define MICROPY_PY_TIME                     (0)
 #define MICROPY_PY_OS                       (0)
-#define MICROPY_PY_JSON                     (0)
+#define MICROPY_PY_JSON                     (1)
+#define MICROPY_PY_JSON_SEPARATORS          (1)
+#define MICROPY_PY_BINASCII                 (1)
+#define MICROPY_PY_BINASCII_CRC32           (1)
+#define MICROPY_PY_RANDOM                   (1)
+#define MICROPY_PY_RANDOM_EXTRA_FUNCS       (1)
+#define MICROPY_PY_HEAPQ                    (1)
+#define MICROPY_PY_HASHLIB                  (1)
+#define MICROPY_PY_HASHLIB_SHA256           (1)
+#define MICROPY_PY_HASHLIB_SHA1             (0)
+#define MICROPY_PY_HASHLIB_MD5              (0)
 #define MICROPY_PY_RE                       (0)
-#define MICROPY_PY_RANDOM                   (0)
-#define MICROPY_PY_BINASCII                 (0)
-#define MICROPY_PY_HEAPQ                    (0)
-#define MICROPY_PY_HASHLIB                  (0)
 #define MICROPY_PY_SELECT                   (0)
 #define MICROPY_PY_ASYNCIO                  (0)
 #define MICROPY_PY_DEFLATE                  (0)
