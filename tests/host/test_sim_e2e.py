@@ -65,3 +65,40 @@ def test_reset_mid_track_restarts_in_standby(straight, tmp_path):
     ms = [(t, v) for t, n, v in res["outputs"] if n == "mode"]
     assert [v for t, v in ms if t >= 40][0].startswith("STANDBY")
     assert not any(v.startswith("AUTO") for t, v in ms if t >= 40)  # never engages by itself
+
+
+def _fault_run(straight, tmp_path, fault, duration_s=80):
+    r, res, summ = sail(straight, tmp_path / "f", seed=3, scenario="current", faults=[fault],
+                        duration_s=duration_s)
+    assert res["failure"] is None, res["failure"]
+    return r, res, [(t, v) for t, n, v in res["outputs"] if n == "mode"]
+
+
+# (fault, the modes the firmware must show after it, in order) -- ARCHITECTURE.md "Modes and safety"
+REACTIONS = [
+    ("rtk_single@40:30", ["AUTO(degraded)", "ALARM"]),
+    ("gnss_dropout@40:4", ["AUTO(degraded)", "AUTO"]),
+    ("heading_loss@40:4", ["AUTO(degraded)", "AUTO"]),
+    ("pilot_hang_keys@40", ["AUTO(recovering)", "AUTO"]),
+    ("pilot_silent@40:20", ["AUTO(recovering)"]),
+    ("motor_link_loss@40:20", ["ALARM"]),
+    ("estop@40:10", ["ESTOP"]),
+    ("button_standby@40", ["STANDBY"]),
+    pytest.param("pilot_hang_steer@40", ["AUTO(recovering)", "AUTO"], marks=pytest.mark.xfail(
+        strict=True, reason="firmware does not detect 'keeps talking, stops steering' yet")),
+    pytest.param("st_noise@40:40", [], marks=pytest.mark.xfail(
+        strict=True, reason="one corrupted 0x84 mode byte is taken as a takeover")),
+]
+
+
+@pytest.mark.parametrize("fault,expect", REACTIONS)
+def test_fault_reaction(straight, tmp_path, fault, expect):
+    r, res, ms = _fault_run(straight, tmp_path, fault)
+    after = [v for t, v in ms if t >= 40.0]
+    got = []
+    for v in after:  # the expected modes must appear in this order
+        if len(got) < len(expect) and v == expect[len(got)]:
+            got.append(v)
+    assert got == expect, after
+    if not expect:  # no reaction expected: it stays in AUTO
+        assert not after, after

@@ -60,8 +60,7 @@ class ST2000Sim:
         self._period_us = per
 
     def _status_84(self, t_us):
-        if not self.silent:
-            self.send_84(t_us)
+        self.send_84(t_us)
         self.sched.at(t_us + self._period_us, self._status_84)
 
     def _status_9c(self, t_us):
@@ -72,6 +71,8 @@ class ST2000Sim:
         self.sched.at(t_us + self._period_us, self._status_9c)
 
     def send_84(self, t_us):
+        if self.silent:
+            return
         alarms = 0x04 if self.off_course_s > 20.0 else 0
         d = stcodec.encode_84(self.compass_int(), self.course_deg, self.mode, alarms,
                               self.rudder_deg, self.p["tt_byte"], self.p["odd_rule"],
