@@ -19,7 +19,7 @@ import gc
 
 from trackpilot import VERSION
 from trackpilot import modes as M
-from trackpilot import ntrip, seatalk
+from trackpilot import control, logfmt, ntrip, seatalk
 from trackpilot.compat import ticks_diff, wrap180
 from trackpilot.fix import RTK_FIXED, RTK_FLOAT, RTK_NAMES, RTK_SINGLE, Fix
 
@@ -288,46 +288,35 @@ class App:
         self.drain_events()
 
     # ------------------------------------------------------------------ the control step
-    def gnss_ok(self):
-        fix = self.fix
-        if not fix.pos_valid:
-            return False, "no GNSS position"
-        if fix.rtk < self.steer_min_rtk:
-            return False, "RTK %s" % RTK_NAMES[fix.rtk]
-        if not fix.heading_valid:
-            return False, "heading invalid"
-        return True, ""
-
     def control_step(self, t_ms):
         """Once per GNSS epoch: navigate, guide, command the pilot and the motor, log."""
-        from trackpilot.geo import apply_lever_arm_hp
-
         fix = self.fix
         self.last_epoch_ms = t_ms
         self.epochs += 1
-        ok, why = self.gnss_ok()
+        # the inputs at the log's resolution (0.01 deg, 1 mm/s ...): replay reproduces every command
+        q = logfmt.quantized
+        fix.heading_deg = q("heading_deg", fix.heading_deg)
+        fix.heading_acc_deg = q("heading_acc_deg", fix.heading_acc_deg)
+        fix.sog_mps = q("sog_mps", fix.sog_mps)
+        fix.cog_deg = q("cog_deg", fix.cog_deg)
+        fix.h_acc_m = q("h_acc_m", fix.h_acc_m)
+        ok, why = control.gnss_ok(fix, self.steer_min_rtk)
         self.mm.gnss_quality(t_ms, ok, why)
         mm = self.mm
-        out = None
-        if self.progress is not None and fix.pos_valid and fix.heading_valid:
-            bcfg = self.cfg["boat"]
-            lat_e7, lon_e7, lat_hp, lon_hp = apply_lever_arm_hp(
-                fix.lat_e7, fix.lon_e7, fix.lat_hp, fix.lon_hp, fix.heading_deg,
-                bcfg["antenna_fwd_m"], bcfg["antenna_stbd_m"]
-            )
-            self.ref_lat_e7 = lat_e7
-            self.ref_lon_e7 = lon_e7
-            leg_before = self.progress.leg
-            self.progress.update(lat_e7, lon_e7, lat_hp, lon_hp)
+        guiding = mm.mode == M.AUTO and not mm.degraded and not mm.holding
+        leg_before = self.progress.leg if self.progress is not None else 0
+        ref, out = control.guide_epoch(fix, self.progress, self.law, self.cfg["boat"], guiding)
+        if ref is not None:
+            self.ref_lat_e7 = ref[0]
+            self.ref_lon_e7 = ref[1]
             if self.progress.leg != leg_before:
                 self.event("NAV", "leg %d -> %d" % (leg_before, self.progress.leg))
                 self.save_state(t_ms)
-            if mm.mode == M.AUTO and not mm.degraded and not mm.holding:
-                out = self.law.step(fix, self.progress, 0.2)
-                self.heading_cmd_deg = out.heading_cmd_deg
-                mm.xte(t_ms, self.progress.xte_m)
-                if self.progress.finished:
-                    mm.arrived(t_ms, self.progress.finish_reason)
+        if out is not None:
+            self.heading_cmd_deg = out.heading_cmd_deg
+            mm.xte(t_ms, self.progress.xte_m)
+            if self.progress.finished:
+                mm.arrived(t_ms, self.progress.finish_reason)
         self.guidance_out = out
         self.drain_events()
         # the pilot
@@ -410,6 +399,7 @@ class App:
         rec.wind_speed_mps = self.wind.speed_mps
         rec.alarms = self.mm.alarms
         rec.mode = self.mm.mode
+        rec.guided = 1 if out is not None else 0
         self.log.control(rec)
 
     # ------------------------------------------------------------------ tasks

@@ -81,6 +81,7 @@ FIELDS = (
     ("wind_speed_mps", 100, "m/s", D1, 0),
     ("alarms", 1, "bits", D1, 0),
     ("mode", 1, "", D1, 0),
+    ("guided", 1, "", D1, 0),  # 1: the guidance law ran in this step (replay reruns exactly these)
 )
 
 
@@ -93,7 +94,8 @@ class ControlRecord:
       heading_acc_deg (0.01), vel_valid, sog_mps (1 mm/s), cog_deg (0.01), corr_age_s (0.1),
       leg, xte_m (1 cm), path_xte_m (1 cm), heading_cmd_deg (0.01), speed_cmd_mps (1 mm/s), pilot_mode,
       compass_deg (0.1), locked_deg (0.1), rudder_deg (0.1), keys_sent, keys_net_deg (cumulative),
-      rpm_set, rpm, battery_v (0.01), wind_angle_deg (0.1), wind_speed_mps (0.01), alarms, mode.
+      rpm_set, rpm, battery_v (0.01), wind_angle_deg (0.1), wind_speed_mps (0.01), alarms, mode,
+      guided (1 when the guidance law ran in this step).
     Decoded records also carry `key` (True for an absolute record) and `offset` (byte offset).
     """
 
@@ -135,6 +137,7 @@ class ControlRecord:
         self.wind_speed_mps = 0.0
         self.alarms = 0
         self.mode = 0
+        self.guided = 0
         self.key = False
         self.offset = -1
 
@@ -288,6 +291,19 @@ def _quant(x, scale):
         return round(x * scale)  # half to even, as CPython; one float temporary
     except (ValueError, OverflowError):  # nan, inf: logged as 0 rather than stopping the log
         return 0
+
+
+def quantized(name, x):
+    """`x` exactly as the log stores it and a decoder gives it back (int / scale, wrapped).
+    The app feeds its control step with these values, so a replay of the log sees exactly the
+    inputs the boat saw and reproduces its commands bit for bit."""
+    for f in FIELDS:
+        if f[0] == name:
+            q = _quant(x, f[1])
+            if f[4]:
+                q %= f[4]
+            return q if f[1] == 1 else q / f[1]
+    raise KeyError(name)
 
 
 def _wrap(d, mod):
@@ -573,6 +589,7 @@ class _Chain:
         self.prev2 = [0] * n
         self.seq = -1
         self.valid = False
+        self.gap = 0  # control records missing before the last keyframe (sequence gap, mod 256)
 
     def decode(self, typ, data, s, e, offset):
         n = self.n
@@ -585,6 +602,7 @@ class _Chain:
         seq = data[s]
         s += 1
         if typ == T_KEY:
+            self.gap = (seq - self.seq - 1) & 0xFF if self.seq >= 0 else 0
             i = s
             for k in range(n):
                 vals[k], i = _get_sv(data, i, e)
@@ -702,6 +720,10 @@ def iter_records(data, fields=FIELDS):
                     chain = _Chain(rec.fields)
             elif typ == T_KEY or typ == T_DELTA:
                 rec = chain.decode(typ, data, s, e, i)
+                if rec is not None and typ == T_KEY and chain.gap:
+                    # whole records vanished right before a keyframe: nothing else shows it
+                    yield Damage(i, 0, "%d control records missing (sequence gap)" % chain.gap)
+                    chain.gap = 0
                 if rec is None:
                     if not orphans:
                         orphan_off = i

@@ -168,7 +168,9 @@ def test_deleted_and_inserted_spans():
         got = list(L.iter_records(mangled))
         recs = [_content(r) for r in got if r.type != "damage"]
         assert recs == exp, "trial %d" % trial
-        assert any(r.type == "damage" for r in got)
+        lost_control = any(f[2] == "control" and a <= f[0] < b for f in frames)
+        if not (trial % 3 == 2 and not lost_control):  # only events vanished whole: undetectable
+            assert any(r.type == "damage" for r in got), "trial %d" % trial
         assert sum(x.records for x in got if x.type == "damage") == orphans
 
 
