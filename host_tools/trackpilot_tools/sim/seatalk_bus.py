@@ -143,9 +143,9 @@ class SeaTalkBus:
             return
         tx = c.tx
         if tx is not None:
-            near = [x for x in self.recent if x.start < c.end and x.end > c.start]
-            near += [x for x in self.pending if x.start < c.end and x.end > c.start]
-            seen = self._sample(c.start, near)
+            near = [x for x in self.recent if x.start < c.end and x.end > c.start and x is not c]
+            near += [x for x in self.pending if x.start < c.end and x.end > c.start and x is not c]
+            seen = self._sample(c.start, near + [c]) if near else (c.value, c.bit9)
             if seen != (c.value, c.bit9):
                 self.stats["collisions"] += 1
                 for later in tx.chars:
