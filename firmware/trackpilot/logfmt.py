@@ -602,7 +602,8 @@ class _Chain:
         seq = data[s]
         s += 1
         if typ == T_KEY:
-            self.gap = (seq - self.seq - 1) & 0xFF if self.seq >= 0 else 0
+            # a gap is news only if nothing before it was reported damaged (chain still valid)
+            self.gap = (seq - self.seq - 1) & 0xFF if (self.valid and self.seq >= 0) else 0
             i = s
             for k in range(n):
                 vals[k], i = _get_sv(data, i, e)
