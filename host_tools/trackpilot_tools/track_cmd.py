@@ -98,3 +98,6 @@ def add_parser(p):
                    help="highest plausible speed, m/s (default %(default)s)")
     c.add_argument("--strict", action="store_true", help="exit 2 when there are warnings")
     c.set_defaults(func=_check)
+    from trackpilot_tools import track_import
+
+    track_import.add_import_parser(sub)
