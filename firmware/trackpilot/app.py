@@ -585,11 +585,23 @@ class App:
             self.log.tick(self.clock())
             await asyncio.sleep_ms(self.grid_ms(200))
 
+    def nmea_sentences(self):
+        """GGA, RMC, HDT and XTE for chart plotters (UDP 10110 on the boat)."""
+        from trackpilot import nmea_out
+
+        fix = self.fix
+        out = nmea_out.gga(fix) + nmea_out.rmc(fix) + nmea_out.hdt(fix)
+        p = self.progress
+        if p is not None and fix.pos_valid:
+            out += nmea_out.xte(p.xte_m, valid=self.mm.mode == M.AUTO)
+        return out
+
     async def task_telemetry(self):
         period = self.cfg["telemetry"]["period_ms"]
         while True:
             self.beat("telemetry")
             self.w.send_status(self, self.clock())
+            self.w.send_nmea(self.nmea_sentences())
             await asyncio.sleep_ms(self.grid_ms(period))
 
     async def task_supervisor(self):

@@ -28,6 +28,8 @@ class Wiring:
     def __init__(self, cfg, data_dir=""):
         w = cfg["wiring"]
         self.cfg = w
+        self.cfg_all = cfg
+        self._nmea_sock = None
         self.ticks_ms = time.ticks_ms  # wraps at 2**30 on the ESP32, like trackpilot.compat
         self.gnss_uart = machine.UART(w["gnss_uart"], baudrate=w["gnss_baud"], tx=w["gnss_tx"],
                                       rx=w["gnss_rx"], rxbuf=2048, timeout=0)
@@ -103,6 +105,22 @@ class Wiring:
     def send_status(self, app, t_ms):
         if self.hmi is not None:
             self.hmi.send_status(app, t_ms)
+
+    def send_nmea(self, data):
+        """NMEA 0183 for chart plotters (OpenCPN listens on UDP 10110); best effort."""
+        w = self.cfg_all["telemetry"]
+        if not w["enabled"]:
+            return
+        try:
+            if self._nmea_sock is None:
+                import socket
+
+                self._nmea_sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+                self._nmea_sock.setsockopt(socket.SOL_SOCKET, socket.SO_BROADCAST, 1)
+                self._nmea_addr = socket.getaddrinfo(w["udp_host"], w["udp_port"])[0][-1]
+            self._nmea_sock.sendto(data, self._nmea_addr)
+        except OSError:
+            pass  # no network right now
 
     def set_throttle(self, duty):
         if self.throttle is not None:

@@ -25,6 +25,7 @@ class Wiring:
         self.wind_uart = link.stream(simio.DEV_WIND)
         self.io = link.stream(simio.DEV_IO)
         self.telemetry = link.stream(simio.DEV_TELEMETRY)
+        self.nmea_out = link.stream(simio.DEV_NMEA_OUT)
         self.input_period_ms = 100  # inputs arrive as whole, debounced presses (SIM_PROTOCOL.md)
         self.rand = Prng(seed)  # deterministic back-off: same seed, same run
         self.data_dir = data_dir
@@ -108,6 +109,9 @@ class Wiring:
         except ImportError:
             return
         self.telemetry.write(encode_status(status_from_app(app, t_ms)))
+
+    def send_nmea(self, data):
+        self.nmea_out.write(data)
 
     def set_throttle(self, duty):
         self.throttle_duty = duty
