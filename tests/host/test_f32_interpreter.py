@@ -417,3 +417,63 @@ for xs in cases():
         heapq.heapify(h2)
         # Same algorithm as CPython's: identical heap layouts, not only the same pop order.
         assert ast.literal_eval(line) == (h, sorted(xs), h2, sorted(xs)), xs
+
+
+# ------------------------------------------------------------------------------------ framebuf
+
+FRAMEBUF_SCRIPT = """
+import framebuf
+st = [12345]
+def r(a, b):  # same pseudo-random operations under both interpreters
+    st[0] = (st[0] * 1103515245 + 12345) & 0x7fffffff
+    return a + (st[0] >> 8) % (b - a + 1)
+fmts = [(framebuf.MONO_VLSB, 1), (framebuf.MONO_HLSB, 1), (framebuf.MONO_HMSB, 1), (framebuf.RGB565, 0xffff),
+        (framebuf.GS2_HMSB, 3), (framebuf.GS4_HMSB, 15), (framebuf.GS8, 255)]
+for fmt, cmax in fmts:
+    for (w, h) in [(16, 8), (13, 11), (21, 17), (32, 20), (128, 64)]:
+        size = {0: ((h + 7) // 8) * w, 1: w * h * 2, 2: ((w + 1) & ~1) * h // 2 + 1, 3: ((w + 7) & ~7) * h // 8,
+                4: ((w + 7) & ~7) * h // 8, 5: ((w + 3) & ~3) * h // 4 + 1, 6: w * h}[fmt]
+        buf = bytearray(size)
+        fb = framebuf.FrameBuffer(buf, w, h, fmt)
+        src = framebuf.FrameBuffer(bytearray(b'\\x5a\\xc3\\x81\\xff\\x00\\x18\\x66\\x99'), 8, 8, framebuf.MONO_VLSB)
+        for step in range(80):
+            op = r(0, 10)
+            c = r(0, cmax)
+            if op == 0: fb.fill(c)
+            elif op == 1: fb.fill_rect(r(-5, w), r(-5, h), r(-2, w), r(-2, h), c)
+            elif op == 2: fb.pixel(r(-2, w + 1), r(-2, h + 1), c)
+            elif op == 3: fb.hline(r(-5, w), r(-2, h), r(-2, w + 3), c)
+            elif op == 4: fb.vline(r(-2, w), r(-5, h), r(-2, h + 3), c)
+            elif op == 5: fb.rect(r(-5, w), r(-5, h), r(0, w), r(0, h), c, r(0, 1) == 1)
+            elif op == 6: fb.line(r(-5, w + 5), r(-5, h + 5), r(-5, w + 5), r(-5, h + 5), c)
+            elif op == 7: fb.text("".join(chr(r(1, 300)) for i in range(r(0, 6))), r(-8, w), r(-8, h), c)
+            elif op == 8: fb.scroll(r(-w, w), r(-h, h))
+            elif op == 9: fb.blit(src, r(-8, w), r(-8, h), r(-1, 1))
+            else: print(fb.pixel(r(-1, w), r(-1, h)), end=' ')
+        print(fmt, w, h, bytes(buf).hex())
+buf = bytearray(32)
+fb = framebuf.FrameBuffer(buf, 16, 16, framebuf.MONO_VLSB)
+for x0 in range(-3, 19, 2):
+    for y0 in range(-3, 19, 3):
+        for x1 in range(-3, 19, 3):
+            for y1 in range(-3, 19, 2):
+                fb.fill(0)
+                fb.line(x0, y0, x1, y1, 1)
+                print(bytes(buf).hex())
+glyphs = bytearray(8 * 96)
+framebuf.FrameBuffer(glyphs, 8 * 96, 8, framebuf.MONO_VLSB).text("".join(chr(c) for c in range(32, 128)), 0, 0, 1)
+print(bytes(glyphs).hex())
+"""
+
+
+def test_framebuf_draws_like_unix_port(f32, tmp_path):
+    """Pixel for pixel the unix port's framebuf: all formats, clipping, lines, text, scroll, blit."""
+    if not DOUBLE.exists():
+        pytest.skip("no double-precision micropython in .venv")
+    proc = subprocess.run([f32, "-c", "import framebuf"], capture_output=True)
+    if proc.returncode != 0:
+        pytest.skip("f32 build without framebuf (no unix port to take the font from at build time)")
+    a = run_mpy(f32, tmp_path, FRAMEBUF_SCRIPT, name="fb_f32")
+    b = run_mpy(DOUBLE, tmp_path, FRAMEBUF_SCRIPT, name="fb_dbl")
+    assert len(a) == len(b) > 7000
+    assert a == b

@@ -115,7 +115,7 @@
 #define MICROPY_PY_SELECT                   (0)
 #define MICROPY_PY_ASYNCIO                  (0)
 #define MICROPY_PY_DEFLATE                  (0)
-#define MICROPY_PY_FRAMEBUF                 (0)
+#define MICROPY_PY_FRAMEBUF                 (1) // modframebuf.c, if the font header was generated
 #define MICROPY_PY_UCTYPES                  (0)
 #define MICROPY_PY_PLATFORM                 (0)
 #define MICROPY_PY_MACHINE                  (0)
