@@ -69,3 +69,8 @@ def test_esp_idf_style_rx_timeout_batches_bus_bytes(tmp_path):
     r1, res1 = run(tmp_path, "b1", duration_s=8)
     # 8 status datagrams of 4 + 9 bytes: one step per byte, or one per datagram
     assert res1["steps"] - res["steps"] >= 8 * 11
+
+
+def test_realtime_mode_paces_to_the_wall_clock(tmp_path):
+    r, res = run(tmp_path, "rt", duration_s=2.0, realtime=True, realtime_speed=4.0)
+    assert res["wall_s"] >= 0.45 and res["speedup"] < 4.5
