@@ -103,7 +103,17 @@ FIELDS = (
     ("locked_deg", 0.0),  # the pilot's locked course
     ("keystrokes", 0),  # course keystrokes sent since boot
     ("hang_recoveries", 0),  # Standby-Auto recoveries since boot
+    # environment and power (the datagram's trailer)
+    ("wind_angle_deg", -1.0),  # apparent wind angle from the bow, 0..360, -1 unknown
+    ("wind_speed_mps", -1.0),  # apparent wind speed, -1 unknown
+    ("battery_v", -1.0),  # battery voltage from the motor controller, -1 unknown
 )
+
+_TRAILER_LEN = 6  # u16 wind angle (0.1 deg), u16 wind speed (cm/s), u16 battery (10 mV); 65535 = unknown
+
+
+def _u16_or_unknown(v, scale):
+    return 65535 if v is None or v < 0 else _clamp(int(v * scale + 0.5), 0, 65534)
 
 
 class HmiStatus:
@@ -205,7 +215,9 @@ def encode_status(st):
         _clamp(st.hang_recoveries, 0, 65535),
         st.cmd_counter & 0xFFFFFFFF,
     )
-    return STATUS_MAGIC + fixed + bytes((len(ra),)) + ra + bytes((len(rf),)) + rf
+    trailer = struct.pack("<HHH", _u16_or_unknown(st.wind_angle_deg, 10.0),
+                          _u16_or_unknown(st.wind_speed_mps, 100.0), _u16_or_unknown(st.battery_v, 100.0))
+    return STATUS_MAGIC + fixed + bytes((len(ra),)) + ra + bytes((len(rf),)) + rf + trailer
 
 
 def decode_status(pkt, st=None):
@@ -223,9 +235,11 @@ def decode_status(pkt, st=None):
     ra = bytes(pkt[i + 1 : i + 1 + la])
     i += 1 + la
     lf = pkt[i]
-    if lf > TEXT_MAX or i + 1 + lf != n:
+    end = i + 1 + lf
+    if lf > TEXT_MAX or (end != n and end + _TRAILER_LEN != n):
         raise ValueError("bad refusal length")
-    rf = bytes(pkt[i + 1 : i + 1 + lf])
+    rf = bytes(pkt[i + 1 : end])
+    trailer = struct.unpack("<HHH", bytes(pkt[end:n])) if n == end + _TRAILER_LEN else (65535,) * 3
     if st is None:
         st = HmiStatus()
     st.boat_id, st.seq, st.mode, flags, flags2, st.rtk = v[0:6]
@@ -252,6 +266,9 @@ def decode_status(pkt, st=None):
     st.cmd_valid = bool(flags & 64)
     st.nav_valid = bool(flags & 128)
     st.pilot_ok = bool(flags2 & 1)
+    st.wind_angle_deg = -1.0 if trailer[0] == 65535 else trailer[0] / 10.0
+    st.wind_speed_mps = -1.0 if trailer[1] == 65535 else trailer[1] / 100.0
+    st.battery_v = -1.0 if trailer[2] == 65535 else trailer[2] / 100.0
     try:
         st.alarm_reason = ra.decode()
         st.refusal = rf.decode()
@@ -344,4 +361,13 @@ def status_from_app(app, t_ms, st=None):
         st.locked_deg = float(_num(getattr(pilot, "course_deg", None), 0.0))
         st.keystrokes = getattr(pilot, "keys_sent", 0)
         st.hang_recoveries = getattr(pilot, "recoveries", 0)
+    bv = getattr(motor, "battery_v", None) if motor is not None else None
+    st.battery_v = -1.0 if bv is None else float(bv)
+    wind = getattr(app, "wind", None)
+    if wind is not None and getattr(wind, "valid", False):
+        st.wind_angle_deg = float(_num(getattr(wind, "angle_deg", None), -1.0))
+        st.wind_speed_mps = float(_num(getattr(wind, "speed_mps", None), -1.0))
+    else:
+        st.wind_angle_deg = -1.0
+        st.wind_speed_mps = -1.0
     return st

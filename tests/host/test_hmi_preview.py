@@ -135,10 +135,19 @@ def test_status_offsets_match_docs_telemetry():
 
     st = sample("alarm_gnss")
     b = encode_status(st)
-    assert len(b) == 70 + len(st.alarm_reason.encode()) + len(st.refusal.encode())
+    assert len(b) == 70 + len(st.alarm_reason.encode()) + len(st.refusal.encode()) + 6  # + trailer
     assert struct.unpack_from("<H", b, 4)[0] == st.boat_id
     assert b[8] == st.mode and b[11] == st.rtk
     assert struct.unpack_from("<ii", b, 26) == (st.lat_e7, st.lon_e7)
     assert struct.unpack_from("<i", b, 36)[0] == round(st.xte_m * 100)
     assert struct.unpack_from("<I", b, 64)[0] == st.cmd_counter
     assert b[68] == len(st.alarm_reason.encode())
+    st.wind_angle_deg, st.wind_speed_mps, st.battery_v = 123.4, 5.67, 47.5
+    b = encode_status(st)
+    assert struct.unpack_from("<HHH", b, len(b) - 6) == (1234, 567, 4750)
+    from tphmi.status import decode_status
+
+    back = decode_status(b)
+    assert (back.wind_angle_deg, back.wind_speed_mps, back.battery_v) == (123.4, 5.67, 47.5)
+    old = decode_status(b[:-6])  # a datagram without the trailer still decodes
+    assert old.wind_angle_deg == -1.0 and old.battery_v == -1.0
