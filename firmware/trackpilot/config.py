@@ -132,6 +132,7 @@ SCHEMA = {
         "udp_port": (10110, "i", 1, 65535),
         "status_port": (10111, "i", 1, 65535),
         "period_ms": (1000, "i", 100, 10000),
+        "console": (False, "b", None, None),  # also print `TPS <hex>` status lines on the USB console
     },
 }
 

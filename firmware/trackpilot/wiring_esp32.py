@@ -105,6 +105,13 @@ class Wiring:
     def send_status(self, app, t_ms):
         if self.hmi is not None:
             self.hmi.send_status(app, t_ms)
+        if self.cfg_all["telemetry"]["console"]:
+            # for `trackpilot monitor --serial PORT` over the USB console
+            import binascii
+
+            from tphmi.status import encode_status, status_from_app
+
+            print("TPS", binascii.hexlify(encode_status(status_from_app(app, t_ms))).decode())
 
     def send_nmea(self, data):
         """NMEA 0183 for chart plotters (OpenCPN listens on UDP 10110); best effort."""

@@ -13,6 +13,7 @@ COMMANDS = [
     ("bench", "trackpilot_tools.bench_cmd", "accuracy, compute and fault benchmark"),
     ("log", "trackpilot_tools.log_cmd", "decode and plot firmware logs"),
     ("replay", "trackpilot_tools.replay_cmd", "replay a log through the firmware core"),
+    ("monitor", "trackpilot_tools.monitor_cmd", "live view of the boat from its telemetry"),
     ("hmi", "trackpilot_tools.hmi_cmd", "preview the HMI pages"),
     ("deploy", "trackpilot_tools.device_cmd", "install the firmware on an ESP32"),
     ("upload", "trackpilot_tools.upload_cmd", "put a track on a running board (maintenance state, verified)"),

@@ -24,6 +24,9 @@ def add_parser(p):
     p.add_argument("--out", default="sim_out", help="output folder (default sim_out)")
     p.add_argument("--realtime", action="store_true", help="pace the run to the wall clock")
     p.add_argument("--realtime-speed", type=float, default=1.0, help="with --realtime: x real time")
+    p.add_argument("--udp-out", action="store_true",
+                   help="send the firmware's status datagrams to 127.0.0.1:10111 (trackpilot monitor) "
+                        "and its NMEA to 127.0.0.1:10110 (OpenCPN); default with --realtime")
     p.add_argument("--duration-s", type=float, help="time limit (default 1.5 x the track's time + 120 s)")
     p.add_argument("--params", help="JSON file merged over the simulator's boat_params.json")
     p.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
@@ -64,7 +67,9 @@ def run(args):
     run_ = SimRun(args.track, out, seed=args.seed, law=args.law, scenario=args.scenario,
                   faults=args.fault, param_file=args.params, overrides=build_overrides(args),
                   duration_s=args.duration_s, realtime=args.realtime,
-                  realtime_speed=args.realtime_speed, fw_config=pm.parse_set(args.fw_set),
+                  realtime_speed=args.realtime_speed,
+                  udp_out=(10111, 10110) if (args.udp_out or args.realtime) else None,
+                  fw_config=pm.parse_set(args.fw_set),
                   reengage_s=args.reengage_s, quiet=not args.verbose)
     res = run_.run()
     meta = {"track": str(args.track), "law": args.law, "scenario": args.scenario, "seed": args.seed,

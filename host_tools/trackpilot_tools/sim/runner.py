@@ -57,8 +57,13 @@ class SimRun:
     def __init__(self, track_path, out_dir, seed=1, law="los", scenario="calm", faults=(),
                  params=None, param_file=None, overrides=None, duration_s=None, realtime=False,
                  realtime_speed=1.0, fw_config=None, reengage_s=0.0, quiet=True,
-                 stop_after_finish_s=5.0, max_xte_stop_m=80.0, fw_script=None):
+                 stop_after_finish_s=5.0, max_xte_stop_m=80.0, fw_script=None, udp_out=None):
         self.track_path = Path(track_path)
+        self.udp_out = None
+        if udp_out:  # (status port, NMEA port) on 127.0.0.1, as the boat would broadcast them
+            import socket
+
+            self.udp_out = (socket.socket(socket.AF_INET, socket.SOCK_DGRAM), udp_out[0], udp_out[1])
         self.fw_script = Path(fw_script) if fw_script else SIM_MAIN
         self.out = Path(out_dir)
         self.seed = seed
@@ -382,6 +387,16 @@ class SimRun:
                         self.finished_ms = t_ms
             elif dev == P.DEV_TELEMETRY:
                 self.telemetry_bytes += len(data)
+                if self.udp_out is not None:  # live view: `trackpilot monitor` on this machine
+                    self._udp_send(data, self.udp_out[1])
+            elif dev == 7 and self.udp_out is not None:  # NMEA for a chart plotter (OpenCPN)
+                self._udp_send(data, self.udp_out[2])
+
+    def _udp_send(self, data, port):
+        try:
+            self.udp_out[0].sendto(data, ("127.0.0.1", port))
+        except OSError:
+            pass  # nobody listening is fine
 
     def _step(self, t_ms):
         chunks = {}
