@@ -2,11 +2,12 @@
 # tests drive it with the real mpremote. cwd plays the board's flash root (relative paths).
 #
 # It runs the REAL maintenance loop (trackpilot.maint.supervise: guard, Python raw REPL, restart)
-# around a small app that has the interface supervise() uses (mm, clock, event, stop_event, run,
-# load_track) with the real mode machine and the real track module. The full App cannot run here
-# yet without a simulator link; see docs/DEVICE.md.
+# around the REAL application (trackpilot.app.App) on the bench wiring (wiring_bench: no devices
+# attached, real clock), with `--stand-in` a small app with the same interface instead.
+# The test switches modes through mode.txt (a person's STANDBY; AUTO is forced on the mode
+# machine, as engaging needs a GNSS fix and a pilot that a bench board does not have).
 #
-# Usage: micropython _device_main.py [STANDBY|AUTO] [idle_s] [limit_s]
+# Usage: micropython _device_main.py [STANDBY|AUTO] [idle_s] [limit_s] [--stand-in]
 # Files in cwd: events.txt (one event a line), mode.txt (the test writes STANDBY/AUTO to change
 # the mode while it runs), log/ (files to pull), tracks/.
 import sys
@@ -80,11 +81,60 @@ class StandInApp:
         self.event("STOP", "application stopped")
 
 
+def real_app(mode):
+    from trackpilot import config
+    from trackpilot.app import App
+    from trackpilot.wiring_bench import Wiring
+
+    class BenchApp(App):
+        """The real App; events also go to events.txt for the test, modes follow mode.txt."""
+
+        def event(self, kind, text):
+            App.event(self, kind, text)
+            with open("events.txt", "a") as f:
+                f.write("%s %s\n" % (kind, text))
+
+        async def _follow_mode_file(self):
+            while True:
+                try:
+                    with open("mode.txt") as f:
+                        want = f.read().strip()
+                except OSError:
+                    want = ""
+                t = self.clock()
+                if want == "STANDBY" and self.mm.mode != M.STANDBY:
+                    self.command("STANDBY", "test")
+                elif want == "AUTO" and self.mm.mode != M.AUTO:
+                    self.mm.engage(t, None, "test")
+                    self.drain_events()
+                await asyncio.sleep_ms(100)
+
+        async def run(self):
+            self.runs_seen = getattr(self, "runs_seen", 0) + 1
+            self.event("RUN", "app run %d, mode %s" % (self.runs_seen, M.MODE_NAMES[self.mm.mode]))
+            asyncio.create_task(self._follow_mode_file())
+            await App.run(self)
+
+    cfg = config.defaults()
+    # nothing is attached: a forced AUTO must stay AUTO (degraded) during the test, not fall to
+    # ALARM for a motor controller or GNSS that a bench board does not have
+    cfg["motor"]["expect_replies"] = False
+    cfg["modes"]["gnss_hold_s"] = 120.0
+    w = Wiring("appdata")  # the app's own log and state, apart from the files the test pulls
+    app = BenchApp(w, cfg, (), reset_cause="power-on")
+    if mode == "AUTO":
+        app.mm.engage(app.clock(), None, "test")
+        app.drain_events()
+    app.feed = w.feed_watchdog
+    return app
+
+
 def main():
-    mode = sys.argv[1] if len(sys.argv) > 1 else "STANDBY"
-    idle_s = float(sys.argv[2]) if len(sys.argv) > 2 else maint.IDLE_S
-    limit_s = float(sys.argv[3]) if len(sys.argv) > 3 else maint.LIMIT_S
-    app = StandInApp(mode)
+    args = [a for a in sys.argv[1:] if not a.startswith("--")]
+    mode = args[0] if args else "STANDBY"
+    idle_s = float(args[1]) if len(args) > 1 else maint.IDLE_S
+    limit_s = float(args[2]) if len(args) > 2 else maint.LIMIT_S
+    app = StandInApp(mode) if "--stand-in" in sys.argv else real_app(mode)
     app.load_track("tracks/active.csv")
     maint.supervise(app, feed=app.feed, track_path="tracks/active.csv", idle_s=idle_s, limit_s=limit_s)
 
