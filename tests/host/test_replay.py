@@ -46,3 +46,18 @@ def test_replay_of_a_cut_log_reports_damage(sim_run, tmp_path):
     summary, _ = run_replay([cut], config=out / "config.json")
     assert summary["damage"] >= 1
     assert summary["heading_identical"] == summary["guided"] > 0
+
+
+def test_sim_log_decodes_and_plots(sim_run, tmp_path):
+    out, logs = sim_run
+    csv = tmp_path / "log.csv"
+    r = subprocess.run([sys.executable, "-m", "trackpilot_tools.cli", "log", "decode", *logs, "--csv", str(csv)],
+                       capture_output=True, text=True, cwd=str(ROOT))
+    assert r.returncode == 0, r.stderr
+    rows = csv.read_text().splitlines()
+    assert len(rows) > 700 and "lat_e7" in rows[0]
+    r = subprocess.run([sys.executable, "-m", "trackpilot_tools.cli", "log", "plot", *logs, "--out", str(tmp_path / "p")],
+                       capture_output=True, text=True, cwd=str(ROOT))
+    assert r.returncode == 0, r.stderr
+    pngs = sorted((tmp_path / "p").glob("*.png"))
+    assert len(pngs) >= 4 and all(p.stat().st_size > 10000 for p in pngs)
