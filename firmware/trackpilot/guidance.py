@@ -133,7 +133,9 @@ class LosLaw:
     heading_cmd = course_d - crab (measured COG - heading, low-pass) - beta_hat (ALOS)
     beta_hat' = gamma * lookahead / sqrt(lookahead^2 + y^2) * y, frozen while the command is
     clipped, while far off the path or slow (anti-windup), and clamped.
-    lookahead = clamp(lookahead_gain * U * heading_tc_s, min, max).
+    lookahead = clamp(lookahead_gain * U * heading_tc_s, min, max); the low clamp is the same
+    formula with the hull's own time constant T = T' L / U (U * T = T' L = 2.4 m), so below about
+    2 m/s the lookahead stops shrinking with speed. Defaults: docs/NAVIGATION.md "Tuning".
     Corners are arcs of radius round_factor * turn_radius_m, shrunk where legs are too short
     (never below turn_radius_m / 2; sharper corners and reversals >= 170 deg are not rounded).
     The planned path is what path_xte_m measures against."""
@@ -142,13 +144,13 @@ class LosLaw:
     PARAMS = {
         "turn_radius_m": (9.0, "m", 2.0, 100.0, "the boat's minimum turning radius"),
         "round_factor": (1.5, "1", 1.0, 5.0, "corner radius / turning radius"),
-        "lookahead_gain": (2.5, "1", 0.5, 10.0, "lookahead = gain * speed * heading_tc_s"),
+        "lookahead_gain": (2.0, "1", 0.5, 10.0, "lookahead = gain * speed * heading_tc_s"),
         "heading_tc_s": (1.5, "s", 0.2, 10.0, "time constant of heading response (boat + pilot)"),
-        "lookahead_min_m": (4.0, "m", 1.0, 50.0, "lookahead clamp, low"),
+        "lookahead_min_m": (6.0, "m", 1.0, 50.0, "lookahead clamp, low (gain x T' L: slow boat)"),
         "lookahead_max_m": (20.0, "m", 2.0, 200.0, "lookahead clamp, high"),
-        "preview_s": (1.5, "s", 0.0, 10.0, "preview time: path turn this far ahead is fed forward"),
+        "preview_s": (3.5, "s", 0.0, 10.0, "preview time: path turn this far ahead is fed forward"),
         "crab_use": (1.0, "1", 0.0, 1.0, "weight of the measured crab angle (0 = off)"),
-        "crab_tc_s": (5.0, "s", 0.2, 120.0, "low-pass time constant of the measured crab"),
+        "crab_tc_s": (2.0, "s", 0.2, 120.0, "low-pass time constant of the measured crab"),
         "crab_min_speed_mps": (0.3, "m/s", 0.0, 5.0, "below this COG is noise: crab is held"),
         "crab_max_deg": (35.0, "deg", 0.0, 60.0, "clamp of the measured crab"),
         "alos_gain": (0.004, "rad/(m s)", 0.0, 0.1, "adaptive crab gain gamma (0 = off)"),
