@@ -50,8 +50,17 @@ static uint32_t rnd_next(void) {
     return rnd_pad ^ (rnd_d << 5) ^ (rnd_pad >> 18) ^ ((uint32_t)rnd_dat << 1);
 }
 
-// Uniform in [0, n): mask to the next power of two and retry until below n.
-static uint32_t rnd_below(uint32_t n) {
+// Uniform in [0, n): mask to the next power of two and retry until below n.  Ranges wider
+// than 32 bits raise ValueError (the unix port loops forever on them; on the ESP32 such ints
+// don't fit mp_int_t anyway).
+static uint32_t rnd_below(mp_int_t n_in) {
+    if (n_in > (mp_int_t)0xffffffff) {
+        if (n_in - 1 == (mp_int_t)0xffffffff) {
+            return rnd_next(); // all 32 bits
+        }
+        mp_raise_ValueError(MP_ERROR_TEXT("range too large"));
+    }
+    uint32_t n = (uint32_t)n_in;
     uint32_t mask = 1;
     while ((n & mask) < n) {
         mask = (mask << 1) | 1;
@@ -90,14 +99,14 @@ static mp_obj_t mod_random_randrange(size_t n_args, const mp_obj_t *args) {
     mp_int_t start = mp_obj_get_int(args[0]);
     if (n_args == 1) {
         if (start > 0) {
-            return mp_obj_new_int(rnd_below(start));
+            return mp_obj_new_int_from_uint(rnd_below(start));
         }
         mp_raise_ValueError(NULL);
     }
     mp_int_t stop = mp_obj_get_int(args[1]);
     if (n_args == 2) {
         if (start < stop) {
-            return mp_obj_new_int(start + rnd_below(stop - start));
+            return mp_obj_new_int(start + (mp_int_t)rnd_below(stop - start));
         }
         mp_raise_ValueError(NULL);
     }
@@ -123,7 +132,7 @@ static mp_obj_t mod_random_randint(mp_obj_t a_in, mp_obj_t b_in) {
     if (a > b) {
         mp_raise_ValueError(NULL);
     }
-    return mp_obj_new_int(a + rnd_below(b - a + 1));
+    return mp_obj_new_int(a + (mp_int_t)rnd_below(b - a + 1));
 }
 static MP_DEFINE_CONST_FUN_OBJ_2(mod_random_randint_obj, mod_random_randint);
 
