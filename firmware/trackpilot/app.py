@@ -52,7 +52,8 @@ class App:
         pcfg = cfg["pilot"]
         odd = seatalk.ODD_KNAUF if pcfg["odd_rule"] == "knauf" else seatalk.ODD_DOTNET
         self.framer = seatalk.Framer()
-        self.stlink = stlink.StLink(framer=self.framer, rand=wiring.rand)
+        self.stlink = stlink.StLink.from_config(pcfg, framer=self.framer, rand=wiring.rand)
+        self.st_health = stlink.LinkHealth.from_config(pcfg)
         self.pilot = st2000.St2000.from_config(self.stlink.send, pcfg)
         self.pilot.odd_rule = odd
         self.stlink.on_datagram = self.pilot.on_datagram
@@ -99,6 +100,11 @@ class App:
         self.input_period_ms = getattr(wiring, "input_period_ms", 50)  # button sampling
         self.ref_lat_e7 = 0  # the boat's reference point (lever arm applied), last epoch
         self.ref_lon_e7 = 0
+        self.profile = False  # measure each control epoch (profiled_feed); sim_main --profile
+        self.profile_out = None  # an open file for the samples (else they stay in prof_us/prof_alloc)
+        self.prof_us = []
+        self.prof_alloc = []
+        self._prof_acc = [0, 0]
 
     # ------------------------------------------------------------------ track and state
     def load_track(self, path):
@@ -200,6 +206,25 @@ class App:
         elif kind in ("UNRECOVERABLE", "ENGAGE_FAILED"):
             if self.mm.mode == M.AUTO:
                 self.mm.pilot_lost(t, text)
+
+    def on_link_health(self, h, t, text=""):
+        """The SeaTalk link's verdict (stlink.LinkHealth): it cannot send keys, so the firmware
+        cannot steer. Alarm, then ALARM mode (the pilot keeps its last course in Auto); the
+        alarm clears when a datagram goes out again, AUTO only comes back by a person."""
+        from trackpilot import stlink
+
+        if h == stlink.H_NONE:
+            return
+        why = self.st_health.reason(t) + (("; last: " + text) if text else "")
+        if h == stlink.H_ALARM:
+            self.mm.set_alarm(M.AL_SEATALK, True, why)
+        elif h == stlink.H_LOST:
+            self.event("SEATALK", "cannot send keys: " + why)
+            self.mm.seatalk_lost(t, why)
+        else:
+            self.mm.set_alarm(M.AL_SEATALK, False, "SeaTalk datagram sent again")
+        self.drain_events()
+        self.apply_pilot(t)
 
     def on_motor_event(self, kind, t, text):
         self.event("MOTOR", "%s: %s" % (kind, text))
@@ -319,7 +344,9 @@ class App:
                 mm.arrived(t_ms, self.progress.finish_reason)
         self.guidance_out = out
         self.drain_events()
-        # the pilot
+        # the pilot; the true heading and speed let it tell a pilot that stopped steering
+        self.pilot.note_motion(t_ms, fix.heading_deg if fix.heading_valid else None,
+                               fix.sog_mps if fix.vel_valid else None)
         self.apply_pilot(t_ms)
         if mm.pilot == M.PILOT_STEER and out is not None and fix.heading_valid and self.pilot.commanding():
             # relative to the pilot's own compass: cancels its compass error (seed report 4.7)
@@ -452,9 +479,50 @@ class App:
             if not n:
                 continue
             t = self.clock()
+            if self.profile:
+                self.profiled_feed(mv, n, t)
+                continue
             epochs = self.gnss.feed(mv, n, t)
             if epochs:
                 self.control_step(t)
+
+    def profiled_feed(self, mv, n, t):
+        """The GNSS feed and the control step with CPU time (ticks_us) and bytes allocated
+        (gc.mem_alloc, collector off meanwhile) measured; summed over the feeds of an epoch and
+        recorded when it completes (prof_us, prof_alloc). Only with `profile` set (sim_main
+        --profile, the benchmark); the normal path above has no measuring in it."""
+        from time import ticks_diff as us_diff
+
+        gc.disable()
+        try:
+            a0 = gc.mem_alloc()
+            t0 = self.us()
+            epochs = self.gnss.feed(mv, n, t)
+            if epochs:
+                self.control_step(t)
+            dt = us_diff(self.us(), t0)
+            da = gc.mem_alloc() - a0
+        finally:
+            gc.enable()
+        self._prof_acc[0] += dt
+        self._prof_acc[1] += da
+        if epochs:
+            self.prof_us.append(self._prof_acc[0])
+            self.prof_alloc.append(self._prof_acc[1])
+            self._prof_acc[0] = 0
+            self._prof_acc[1] = 0
+            if len(self.prof_us) >= 250:
+                self.profile_flush()
+
+    def profile_flush(self):
+        """Write the collected samples to `profile_out` ("us bytes" a line) so that a long run
+        does not keep them on the heap it measures."""
+        f = self.profile_out
+        if f is not None:
+            for i in range(len(self.prof_us)):
+                f.write("%d %d\n" % (self.prof_us[i], self.prof_alloc[i]))
+            self.prof_us = []
+            self.prof_alloc = []
 
     async def task_seatalk_rx(self):
         reader = asyncio.StreamReader(self.w.seatalk_uart)
@@ -513,6 +581,9 @@ class App:
                     self.event("SEATALK", "%s: %s" % (stlink.EV_NAMES[ev[0]], ev[2]))
                 if ev[0] == stlink.EV_FAILED:
                     self.pilot.on_send_failed(ev[3], t)
+                    self.on_link_health(self.st_health.on_failed(ev[1]), t, ev[2])
+                elif ev[0] == stlink.EV_SENT:
+                    self.on_link_health(self.st_health.on_sent(ev[1]), t)
 
     async def task_pilot(self):
         """Timers of the pilot driver: confirmations, hang detection, status timeout."""
@@ -521,6 +592,7 @@ class App:
             t = self.clock()
             self.pilot.poll(t)
             self.drain_events()
+            self.on_link_health(self.st_health.poll(t), t)  # failures going on for too long
             self.apply_pilot(t)
             self._st_wake.set()
             await asyncio.sleep_ms(self.grid_ms(100))

@@ -53,6 +53,24 @@ SCHEMA = {
         "odd_rule": ("dotnet", "s", ("dotnet", "knauf"), None),
         "status_timeout_ms": (3500, "i", 1000, 30000),
         "deadband_deg": (1, "i", 0, 10),
+        # hang check (c): error above converge_err_deg for a whole window in which the heading
+        # turned towards the locked course by less than converge_progress_deg (st2000.py)
+        "converge_err_deg": (15.0, "f", 5.0, 90.0),
+        "converge_window_ms": (15000, "i", 5000, 120000),
+        "converge_progress_deg": (8.0, "f", 1.0, 90.0),
+        "converge_min_speed_mps": (0.8, "f", 0.0, 5.0),  # slower: the rudder barely bites
+        # SeaTalk bus timing (stlink.py). The echo of each byte must arrive within
+        # echo_timeout_ms of its write: the UART RX timeout (ESP-IDF default ~23 ms at 4800 Bd,
+        # lowered by wiring_esp32) plus event-loop latency; confirm on the boat (docs/SEATALK.md)
+        "echo_timeout_ms": (40, "i", 5, 200),
+        "idle_ms": (3, "i", 3, 50),  # bus idle before talking (>= 10 bit times = 2.1 ms)
+        "backoff_min_ms": (2, "i", 1, 500),
+        "backoff_max_ms": (50, "i", 2, 1000),
+        "retries": (5, "i", 0, 20),  # per datagram after a collision or lost echo
+        # reaction to datagrams that fail after all retries (app.py, modes.seatalk_lost)
+        "link_alarm_fails": (2, "i", 1, 20),  # in a row: SeaTalk alarm
+        "link_lost_fails": (3, "i", 1, 50),  # in a row: cannot steer, AUTO -> ALARM
+        "link_lost_ms": (5000, "i", 500, 60000),  # ... or this long without a datagram sent
     },
     "motor": {
         "link": ("rs232", "s", ("rs232", "pwm", "none"), None),

@@ -14,6 +14,7 @@ differs):
     GNSS/RTK/heading bad < hold time   AUTO (degraded)     hold course      slow
     ... beyond hold time               ALARM               keeps course     slow
     pilot unrecoverable, motor lost    ALARM               keeps course     slow
+    SeaTalk cannot send (seatalk_lost) ALARM               keeps course     slow
     pilot hang                         AUTO (recovering)   Standby, Auto    slow
     last waypoint                      STANDBY + arrival   Standby (or hold, configurable)
     reset / watchdog                   STANDBY             leave as found   release / 0
@@ -296,6 +297,16 @@ class ModeMachine:
             self.pilot = PILOT_HOLD
             self.motor = MOTOR_SLOW
         self.raise_alarm(AL_MOTOR_LINK, reason)
+
+    def seatalk_lost(self, t_ms, reason):
+        """The SeaTalk link cannot send keys (lost echo, collisions or noise beyond the retries):
+        the firmware can no longer steer. The pilot keeps its last course in Auto; the alarm
+        clears when a datagram goes out again (set_alarm), but AUTO never comes back by itself."""
+        if self.mode == AUTO:
+            self._set_mode(ALARM, "SeaTalk cannot send: " + reason, t_ms)
+            self.pilot = PILOT_HOLD
+            self.motor = MOTOR_SLOW
+        self.raise_alarm(AL_SEATALK, reason)
 
     def xte(self, t_ms, xte_m):
         if self.mode != AUTO or self.degraded:

@@ -23,16 +23,20 @@ locked course in a later 0x84 equals the course expected after it) or timed out
 |error| >= `ten_from_deg` (default 7: at most 3 deg of overshoot; 17 deg takes 5 keys, not 8).
 
 A person taking over: any keystroke that is not our own echo (another sender, or our sender id
-with a key we did not just send), or a mode change we did not ask for, while commanding ->
-EV_TAKEOVER, state TAKEN_OVER.
+with a key we did not just send) -> EV_TAKEOVER at once (0x86 carries its own check byte). A mode
+change we did not ask for, while commanding, is believed only when the next 0x84/0x95 shows the
+same mode (SeaTalk has no checksum: one flipped bit in the mode byte must not end AUTO). Until then
+the datagram is set aside and no keys are sent, so a person still wins within one status period.
 
 The hung pilot (ARCHITECTURE.md), while ENGAGED:
   (a) `hang_unconfirmed_n` keystrokes in a row not confirmed;
   (b) no 0x84/0x95 status for `status_timeout_ms`;
-  (c) in Auto, |heading - locked course| above `converge_err_deg` for `converge_window_ms` without
-      getting below its best so far minus `converge_progress_deg`; the clock restarts when the
-      locked course moves by `converge_course_deg` (a new command). A slow turn keeps improving;
-      wave yaw only lowers the best once, so a stuck pilot in waves is still found.
+  (c) in Auto, |locked course - heading| above `converge_err_deg` for a whole window of
+      `converge_window_ms` in which the heading moved towards the locked course by less than
+      `converge_progress_deg`. This measures the pilot's turning, not the error, so new commands
+      (which move the locked course) cannot hide a pilot that keeps talking but stops steering.
+      The heading is the GNSS heading when the app feeds it (`note_motion`: checksummed, 5 Hz),
+      else the pilot's compass; below `converge_min_speed_mps` (when known) the window restarts.
 Recovery: Standby (confirmed), pause `recover_pause_ms`, Auto (confirmed), then the course is
 re-stepped to compass + the last relative setpoint; each step is an EV_RECOVER event. After
 `recover_retries` failed attempts: EV_UNRECOVERABLE, state FAILED.
@@ -74,7 +78,7 @@ class St2000:
     def __init__(self, send, sender_id=1, odd_rule=st.ODD_DOTNET, key_interval_ms=250,
                  confirm_timeout_ms=1500, mode_confirm_ms=2000, mode_resends=2,
                  status_timeout_ms=3500, hang_unconfirmed_n=3, converge_err_deg=15.0,
-                 converge_window_ms=30000, converge_progress_deg=3.0, converge_course_deg=10.0,
+                 converge_window_ms=15000, converge_progress_deg=8.0, converge_min_speed_mps=0.8,
                  recover_retries=3,
                  recover_pause_ms=1000, ten_from_deg=7.0, tolerance_deg=0.5, echo_window_ms=1000,
                  events_len=32):
@@ -92,7 +96,7 @@ class St2000:
         self.converge_err_deg = converge_err_deg
         self.converge_window_ms = converge_window_ms
         self.converge_progress_deg = converge_progress_deg
-        self.converge_course_deg = converge_course_deg
+        self.converge_min_speed_mps = converge_min_speed_mps
         self.recover_retries = recover_retries
         self.recover_pause_ms = recover_pause_ms
         self.ten_from_deg = ten_from_deg
@@ -126,9 +130,15 @@ class St2000:
         self._sent_key = None  # last keystroke sent (to recognise our own echo)
         self._sent_key_t = 0
         self._unconf = 0
-        self._conv_t0 = None
-        self._conv_best = 0.0
-        self._conv_course = 0.0
+        self._conv_t0 = None  # start of the convergence window (None: not armed)
+        self._conv_h0 = 0.0  # heading at its start
+        self._conv_side = 0  # +1: locked course to starboard of the heading, -1: to port
+        self._conv_src = 0  # 1: GNSS heading, 0: pilot compass
+        self._gh_deg = None  # GNSS heading and speed from note_motion()
+        self._gh_t = 0
+        self._sog_mps = None
+        self._mode_suspect = None  # an unasked mode seen once, waiting for the next status
+        self.mode_glitches = 0  # unasked modes not repeated by the next status (bus noise)
         self._rstage = _R_STANDBY_SEND
         self._rattempt = 0
         self._rt = 0
@@ -149,7 +159,7 @@ class St2000:
         (e.g. deadband_deg, a setting of the pilot itself)."""
         names = ("sender_id", "odd_rule", "key_interval_ms", "confirm_timeout_ms", "mode_confirm_ms",
                  "mode_resends", "status_timeout_ms", "hang_unconfirmed_n", "converge_err_deg",
-                 "converge_window_ms", "converge_progress_deg", "converge_course_deg",
+                 "converge_window_ms", "converge_progress_deg", "converge_min_speed_mps",
                  "recover_retries", "recover_pause_ms", "ten_from_deg", "tolerance_deg")
         kw = {}
         for k in names:
@@ -262,6 +272,8 @@ class St2000:
         if cmd == 0x86:
             self._on_key(d, t_ms)
             return
+        if cmd != 0x9C and self._unasked_once(d["mode"], t_ms):
+            return  # set aside until the next status says the same
         self.heading_deg = d["heading_deg"]
         self.rudder_deg = d["rudder_deg"]
         self.turning_stbd = d["turning_stbd"]
@@ -285,6 +297,27 @@ class St2000:
                 self.keys_confirmed += 1
                 self._unconf = 0
                 self._key = None
+
+    def _unasked_once(self, new, t_ms):
+        """True when this status shows, for the first time, a mode we did not ask for while
+        commanding: the whole datagram is then held back (it may be corrupt) and keys stop
+        until the next status confirms or contradicts it."""
+        old = self.mode
+        if old is None or new == old or new == self._want or not self.commanding():
+            if self._mode_suspect is not None and new == old:
+                self.mode_glitches += 1
+                self._event(EV_MODE, t_ms, "status read %s once, not repeated: ignored (bus noise?)" % (
+                    st.MODE_NAMES[self._mode_suspect]))
+            self._mode_suspect = None
+            return False
+        if self._mode_suspect == new:
+            self._mode_suspect = None  # second status in a row: real
+            return False
+        self._mode_suspect = new
+        self.last_status_ms = t_ms  # the pilot is talking, even if this reading is doubtful
+        self._event(EV_MODE, t_ms, "status reads %s while %s, unasked: waiting for the next status" % (
+            st.MODE_NAMES[new], st.MODE_NAMES[old]))
+        return True
 
     def _on_key(self, d, t_ms):
         if (d["sender"] == self.sender_id and d["key"] == self._sent_key
@@ -347,6 +380,14 @@ class St2000:
         self._unconf = 0
         self._conv_t0 = None
         self._key = None
+        self._mode_suspect = None
+
+    def note_motion(self, t_ms, heading_deg=None, speed_mps=None):
+        """Optional, once per GNSS epoch: the boat's true heading (None when invalid) and speed
+        over ground (None when unknown) for hang check (c)."""
+        self._gh_deg = heading_deg
+        self._gh_t = t_ms
+        self._sog_mps = speed_mps
 
     # ---- time ----
     def next_due_ms(self, t_ms, cap_ms=1000):
@@ -369,7 +410,7 @@ class St2000:
                 due.append(0 if self._last_key_t is None else
                            ticks_diff(self._last_key_t, t_ms) + self.key_interval_ms)
             if self._conv_t0 is not None:
-                due.append(ticks_diff(self._conv_t0, t_ms) + self.converge_window_ms + 1)
+                due.append(ticks_diff(self._conv_t0, t_ms) + self.converge_window_ms)
         d = min(due)
         return d if d > 0 else 0
 
@@ -410,21 +451,10 @@ class St2000:
     def _poll_engaged(self, t_ms):
         if self.mode != st.MODE_AUTO or self.status_lost:
             return
-        # (c) heading not converging on the locked course
-        err = abs(wrap180(self.heading_deg - self.course_deg))
-        if err > self.converge_err_deg:
-            if (self._conv_t0 is None or err < self._conv_best - self.converge_progress_deg
-                    or abs(wrap180(self.course_deg - self._conv_course)) >= self.converge_course_deg):
-                # first excess, real progress, or a new course (a command restarts the clock)
-                self._conv_t0 = t_ms
-                self._conv_best = err
-                self._conv_course = self.course_deg
-            elif ticks_diff(t_ms, self._conv_t0) > self.converge_window_ms:
-                self._hang(t_ms, "heading %d not converging on course %s (error %d deg for %d s)" % (
-                    self.heading_deg, self.course_deg, int(err), ticks_diff(t_ms, self._conv_t0) // 1000))
-                return
-        else:
-            self._conv_t0 = None
+        if self._mode_suspect is not None:
+            return  # maybe a person: no keys until the next status tells
+        if self._converge_check(t_ms):
+            return
         # (a) keystrokes not followed
         if self._key is not None:
             if ticks_diff(t_ms, self._key_t) < self.confirm_timeout_ms:
@@ -456,6 +486,37 @@ class St2000:
             self._key = key
             self._key_t = t_ms
             self._key_expect = wrap360(self.course_deg + st.KEY_DELTA_DEG[key])
+
+    def _converge_check(self, t_ms):
+        """Hang check (c): True when it fired. The window measures how far the heading moved
+        towards the locked course, whatever the locked course did meanwhile."""
+        err = wrap180(self.course_deg - self.heading_deg)
+        sog = self._sog_mps
+        if abs(err) <= self.converge_err_deg or (sog is not None and sog < self.converge_min_speed_mps):
+            self._conv_t0 = None  # converged, or too slow for the rudder to bite
+            return False
+        if self._gh_deg is not None and ticks_diff(t_ms, self._gh_t) <= 1000:
+            h, src = self._gh_deg, 1
+        else:
+            h, src = float(self.heading_deg), 0
+        side = 1 if err > 0 else -1
+        if self._conv_t0 is None or side != self._conv_side or src != self._conv_src:
+            self._conv_t0 = t_ms
+            self._conv_h0 = h
+            self._conv_side = side
+            self._conv_src = src
+            return False
+        dt_ms = ticks_diff(t_ms, self._conv_t0)
+        if dt_ms < self.converge_window_ms:
+            return False
+        moved_deg = side * wrap180(h - self._conv_h0)
+        if moved_deg < self.converge_progress_deg:
+            self._hang(t_ms, "heading %d not turning towards course %s: %.1f deg towards it in %d s, error %d deg" % (
+                self.heading_deg, self.course_deg, moved_deg, dt_ms // 1000, int(abs(err))))
+            return True
+        self._conv_t0 = t_ms  # turning well enough: next window
+        self._conv_h0 = h
+        return False
 
     def _hang(self, t_ms, why):
         self.hangs += 1

@@ -25,9 +25,18 @@ every datagram ends in exactly one EV_SENT or EV_FAILED: the link never hangs.
 
 Timing defaults (4800 Bd, 11 bits a character = 2.29 ms): the bus counts as idle after
 `idle_ms` = 3 ms without a received byte (>= 10 bit times = 2.08 ms, rounded up to whole ms) plus
-a random 0..`extra_wait_ms`; an echo must arrive within `echo_timeout_ms` = 10 ms; a collision
+a random 0..`extra_wait_ms`; an echo must arrive within `echo_timeout_ms` = 40 ms; a collision
 (wrong byte back, or none) backs off a random `backoff_min_ms`..`backoff_max_ms` = 2..50 ms and
 retries the whole datagram, at most `retries` = 5 times, then EV_FAILED.
+
+On the ESP32 the UART hands received bytes over only after its RX timeout (ESP-IDF default 10
+character times, ~23 ms at 4800 Bd; wiring_esp32 lowers it through `timeout_char`): the echo
+timeout must cover that plus the event loop's latency, hence `pilot.echo_timeout_ms` (default 40).
+`echo_max_ms` records the slowest echo seen, to check the margin on the boat.
+
+`LinkHealth` turns the link's results into the app's reaction: the SeaTalk alarm after
+`alarm_fails` datagrams in a row failed; "cannot steer" (-> ALARM) after `lost_fails` in a row
+or `lost_ms` since the first failure without a success; OK again at the next datagram sent.
 
 Usage with a fake bus (tests): see tests/mpy/test_seatalk_link.py.
 """
@@ -70,7 +79,7 @@ class Prng:
 
 class StLink:
     def __init__(self, framer=None, on_datagram=None, rand=None, idle_ms=3, extra_wait_ms=0,
-                 echo_timeout_ms=10, backoff_min_ms=2, backoff_max_ms=50, retries=5,
+                 echo_timeout_ms=40, backoff_min_ms=2, backoff_max_ms=50, retries=5,
                  queue_len=4, events_len=16):
         self.framer = framer
         self.on_datagram = on_datagram
@@ -104,6 +113,8 @@ class StLink:
         self.no_echo = 0
         self.rx_bytes = 0
         self.events_dropped = 0
+        self.echo_max_ms = 0  # slowest echo of our own byte seen (ms after the write)
+        self._write_t = 0
 
     def busy(self):
         return self._s != _S_IDLE or bool(self._q)
@@ -144,6 +155,9 @@ class StLink:
         self._last_rx = t_ms
         if self._s == _S_ECHO:
             if b == self._dg[self._i]:
+                dt = ticks_diff(t_ms, self._write_t)
+                if dt > self.echo_max_ms:
+                    self.echo_max_ms = dt
                 self._i += 1
                 if self._i == len(self._dg):
                     self.sent += 1
@@ -229,5 +243,68 @@ class StLink:
         self.byte = b
         self.parity = parity_for(b, self._i == 0)
         self._s = _S_ECHO
+        self._write_t = t_ms
         self._deadline = ticks_add(t_ms, self.echo_timeout_ms)
         return WRITE
+
+    @classmethod
+    def from_config(cls, pilot_cfg, framer=None, on_datagram=None, rand=None):
+        """Timing from the config's "pilot" section (keys absent there keep the defaults)."""
+        kw = {}
+        for k in ("idle_ms", "echo_timeout_ms", "backoff_min_ms", "backoff_max_ms", "retries"):
+            if k in pilot_cfg:
+                kw[k] = pilot_cfg[k]
+        return cls(framer=framer, on_datagram=on_datagram, rand=rand, **kw)
+
+
+H_NONE = const(0)
+H_ALARM = const(1)  # raise the SeaTalk alarm
+H_LOST = const(2)  # the link cannot send: the firmware cannot steer (AUTO -> ALARM)
+H_OK = const(3)  # a datagram went out again: clear the alarm
+
+
+class LinkHealth:
+    """Counts whole datagrams (each already retried by StLink), never single collisions."""
+
+    def __init__(self, alarm_fails=2, lost_fails=3, lost_ms=5000):
+        self.alarm_fails = alarm_fails
+        self.lost_fails = lost_fails
+        self.lost_ms = lost_ms
+        self.fails = 0  # datagrams failed in a row
+        self.first_fail_ms = 0
+        self.alarmed = False
+        self.lost = False
+
+    @classmethod
+    def from_config(cls, pilot_cfg):
+        return cls(pilot_cfg.get("link_alarm_fails", 2), pilot_cfg.get("link_lost_fails", 3),
+                   pilot_cfg.get("link_lost_ms", 5000))
+
+    def on_sent(self, t_ms):
+        was = self.alarmed or self.lost
+        self.fails = 0
+        self.alarmed = self.lost = False
+        return H_OK if was else H_NONE
+
+    def on_failed(self, t_ms):
+        self.fails += 1
+        if self.fails == 1:
+            self.first_fail_ms = t_ms
+        h = self.poll(t_ms)
+        if h == H_NONE and not self.alarmed and self.fails >= self.alarm_fails:
+            self.alarmed = True
+            return H_ALARM
+        return h
+
+    def poll(self, t_ms):
+        """H_LOST once, when the failures have gone on too long; else H_NONE."""
+        if self.lost or not self.fails:
+            return H_NONE
+        if self.fails >= self.lost_fails or ticks_diff(t_ms, self.first_fail_ms) >= self.lost_ms:
+            self.lost = self.alarmed = True
+            return H_LOST
+        return H_NONE
+
+    def reason(self, t_ms):
+        return "%d datagrams in a row not sent, none for %d ms" % (
+            self.fails, ticks_diff(t_ms, self.first_fail_ms))

@@ -36,9 +36,13 @@ class Wiring:
         inv = 0
         if w["seatalk_invert"]:
             inv = machine.UART.INV_TX | machine.UART.INV_RX
+        # timeout_char below one character time (3 ms at 4800 Bd) makes MicroPython set the
+        # IDF RX timeout to 1 character and the RX FIFO threshold to 1 byte: the echo of each
+        # byte is readable ~2.5 ms after the write, not after the IDF default of 10 idle
+        # characters (~23 ms). Older ports ignore it; pilot.echo_timeout_ms (40) covers both.
         self.seatalk_uart = machine.UART(w["seatalk_uart"], baudrate=4800, bits=8, parity=0,
                                          tx=w["seatalk_tx"], rx=w["seatalk_rx"], invert=inv,
-                                         rxbuf=512, timeout=0)
+                                         rxbuf=512, timeout=0, timeout_char=1)
         self.motor_uart = None
         if cfg["motor"]["link"] == "rs232":
             self.motor_uart = machine.UART(w["motor_uart"], baudrate=w["motor_baud"], tx=w["motor_tx"],
@@ -63,7 +67,7 @@ class Wiring:
         self.wdt = machine.WDT(timeout=w["watchdog_ms"])
         self.log_dir = data_dir + "/log"
         self.state_path = data_dir + "/state.json"
-        self.rand = _Rand()
+        self.rand = _seeded_prng()  # StLink's random back-off (needs .randint)
         self.hmi = None
         self._build_hmi(cfg)
 
@@ -140,11 +144,11 @@ class Wiring:
         return None
 
 
-class _Rand:
-    def __call__(self, lo, hi):
-        import random
+def _seeded_prng():
+    from trackpilot.stlink import Prng
 
-        return random.randint(lo, hi)
+    b = os.urandom(4)  # two boxes on one bus must not back off in step
+    return Prng(b[0] | (b[1] << 8) | (b[2] << 16) | (b[3] << 24))
 
 
 def _unused():

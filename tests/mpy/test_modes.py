@@ -158,3 +158,25 @@ def test_standby_from_every_mode():
             mm.motor_link(0, False, "x")
         mm.standby(5)
         eq(mm.mode, M.STANDBY, setup)
+
+
+def test_seatalk_lost_alarm_hold_and_no_reengage():
+    mm = _auto(M.ModeMachine())
+    mm.drain_events()
+    mm.set_alarm(M.AL_SEATALK, True, "2 datagrams in a row not sent")
+    eq(mm.mode, M.AUTO)  # alarm only
+    mm.seatalk_lost(1000, "3 datagrams in a row not sent")
+    eq(mm.mode, M.ALARM)
+    eq(mm.pilot, M.PILOT_HOLD)  # the pilot keeps its last course in Auto
+    eq(mm.motor, M.MOTOR_SLOW)
+    true(mm.alarms & M.AL_SEATALK)
+    ev = mm.drain_events()
+    true(any(k == "MODE" and "SeaTalk cannot send" in t for k, t in ev), ev)
+    mm.set_alarm(M.AL_SEATALK, False, "sent again")
+    eq(mm.alarms & M.AL_SEATALK, 0)
+    eq(mm.mode, M.ALARM)  # never back to AUTO by itself
+    # in STANDBY: alarm, no mode change
+    mm2 = M.ModeMachine()
+    mm2.seatalk_lost(0, "x")
+    eq(mm2.mode, M.STANDBY)
+    true(mm2.alarms & M.AL_SEATALK)

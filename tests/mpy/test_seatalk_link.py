@@ -195,3 +195,52 @@ def test_on_rx_tells_echo_from_traffic_and_wait_tuple():
     act = link.poll(101)
     T.eq(act, (sl.WAIT, 103))  # idle_ms = 3 after the last byte heard
     T.eq(link.poll(103), (sl.WRITE, 0x86, "E"))
+
+
+def test_link_health_alarm_lost_and_clear():
+    h = sl.LinkHealth(alarm_fails=2, lost_fails=3, lost_ms=5000)
+    T.eq(h.on_failed(0), sl.H_NONE)  # one failed datagram: retried already, not yet an alarm
+    T.eq(h.on_failed(300), sl.H_ALARM)
+    T.eq(h.on_failed(600), sl.H_LOST)
+    T.eq(h.on_failed(900), sl.H_NONE)  # reported once
+    T.eq(h.poll(9000), sl.H_NONE)
+    T.eq(h.on_sent(9500), sl.H_OK)
+    T.eq(h.on_sent(9800), sl.H_NONE)
+    # few datagrams to send: lost by time since the first failure
+    T.eq(h.on_failed(10000), sl.H_NONE)
+    T.eq(h.poll(14999), sl.H_NONE)
+    T.eq(h.poll(15000), sl.H_LOST)
+    T.true("1 datagrams" in h.reason(15000), h.reason(15000))
+    T.eq(h.on_sent(16000), sl.H_OK)
+    # a success in between restarts the count
+    h.on_failed(20000)
+    h.on_sent(20100)
+    T.eq(h.on_failed(20200), sl.H_NONE)
+    T.eq(h.poll(24000), sl.H_NONE)
+
+
+def test_link_health_from_config_and_link_timing_from_config():
+    h = sl.LinkHealth.from_config({"link_alarm_fails": 1, "link_lost_fails": 4, "link_lost_ms": 2000})
+    T.eq(h.on_failed(0), sl.H_ALARM)
+    T.eq(h.poll(1999), sl.H_NONE)
+    T.eq(h.poll(2000), sl.H_LOST)
+    link = sl.StLink.from_config({"echo_timeout_ms": 30, "retries": 2, "idle_ms": 4, "deadband_deg": 1})
+    T.eq(link.echo_timeout_ms, 30)
+    T.eq(link.retries, 2)
+    T.eq(link.idle_ms, 4)
+
+
+def test_slow_echo_like_an_esp32_uart_rx_timeout():
+    # ESP-IDF hands bytes over after 10 idle characters: each echo is ~25 ms late. The old 10 ms
+    # echo timeout failed every datagram; the configured 40 ms sends it and records the delay.
+    for timeout_ms, ok in ((10, False), (40, True)):
+        link = sl.StLink(echo_timeout_ms=timeout_ms)
+        bus = FakeBus(link, echo_ms=25)
+        link.send(KEY)
+        bus.run(2000)
+        kinds = [e[0] for e in _events(link)]
+        T.eq(kinds[-1], sl.EV_SENT if ok else sl.EV_FAILED)
+        T.eq(link.sent, 1 if ok else 0)
+        T.eq(link.failed, 0 if ok else 1)
+        if ok:
+            T.true(25 <= link.echo_max_ms <= 26, link.echo_max_ms)
