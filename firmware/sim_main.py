@@ -10,11 +10,11 @@ import sys
 
 def _args(argv):
     opts = {"--config": None, "--track": None, "--data": "/tmp/trackpilot_sim", "--seed": "1",
-            "--reset-cause": "power-on", "--tick-base": None, "--quiet": None}
+            "--reset-cause": "power-on", "--tick-base": None, "--quiet": None, "--profile": None}
     i = 1
     while i < len(argv):
         a = argv[i]
-        if a == "--quiet":
+        if a in ("--quiet", "--profile"):
             opts[a] = "1"
             i += 1
             continue
@@ -42,6 +42,9 @@ def main():
     from trackpilot.app import App
 
     app = App(wiring, cfg, problems, reset_cause=opts["--reset-cause"])
+    if opts["--profile"]:
+        app.profile = True
+        app.profile_out = open(opts["--data"] + "/profile.txt", "w")
     link.stop_callback = app.stop_event.set
     if opts["--track"]:
         app.load_track(opts["--track"])
@@ -53,6 +56,30 @@ def main():
                      "used / %d B free, GC runs %d, max GC pause %d us\n" % (
                          link.t_ms, app.epochs, app.peak_heap, gc.mem_alloc(), gc.mem_free(),
                          app.gc_runs, app.gc_max_us))
+    if app.profile:
+        _profile_report(app, opts["--data"])
+
+
+def _profile_report(app, data_dir):
+    """Per control epoch (GNSS feed + control_step): CPU us and bytes allocated; every sample is
+    in DATA/profile.txt ("us bytes" a line), a summary goes to stderr."""
+    app.profile_flush()
+    app.profile_out.close()
+    us = []
+    al = []
+    with open(data_dir + "/profile.txt") as f:
+        for line in f:
+            a, _, b = line.partition(" ")
+            us.append(int(a))
+            al.append(int(b))
+    n = len(us)
+    if not n:
+        return
+    us.sort()
+    al.sort()
+    sys.stderr.write("sim_main: profile: %d epochs, CPU us median %d p99 %d max %d, allocated B median %d "
+                     "p99 %d max %d mean %d\n" % (n, us[n // 2], us[n * 99 // 100], us[-1], al[n // 2],
+                                                  al[n * 99 // 100], al[-1], sum(al) // n))
 
 
 try:

@@ -1,0 +1,258 @@
+"""`trackpilot bench`, the fault matrix (issue 5): every fault of the simulator's list
+(sim/scenarios.FAULTS) injected once during a track, the firmware's reaction read from its own log
+(logdecode: control records and events) and checked against the reaction defined for it
+(docs/MODES.md, issue 4). Reported: whether the defined reaction happened, time to detect, time to
+recover, max truth |xte| during the fault, whether the track completed.
+
+The track: a 20 m U-turn with 200 m legs at 1.5 m/s, `current` scenario (0.2 m/s), law `los`; the
+fault starts 40 s into the run (about 35 s after engaging, on the first leg). A person takes part
+as on the boat: `reengage_s` after the firmware left AUTO they press ENGAGE again (only from
+STANDBY, as the runner's person does), and if the firmware sits in ALARM (or ESTOP) 5 s after the
+fault ended they press STANDBY (or ACK once the E-stop input is released). Times are simulated
+seconds; "detect" is from the fault's start, "recover" from its end (for instantaneous faults:
+from its start) to the first record in AUTO with the guidance running and no alarm from the fault.
+"""
+import math
+from pathlib import Path
+
+from .sim import scenarios
+
+T_FAULT = 40.0
+REENGAGE_S = 5.0
+TICK_BASE = (1 << 30) - 60000  # sim_main's default --tick-base
+TICKS_MASK = (1 << 30) - 1
+
+# alarm bits (trackpilot.modes)
+AL = {"takeover": 1, "gnss": 2, "gnss_timeout": 4, "pilot_hang": 8, "pilot_lost": 16, "motor_link": 32,
+      "xte": 64, "arrival": 128, "estop": 256, "seatalk": 1024}
+STANDBY, AUTO, ALARM, ESTOP = 0, 1, 2, 3
+
+# name: (duration s or None, the defined reaction (text), kind of check)
+SPEC = {
+    "rtk_float": (20.0, "keeps steering on RTK float (modes.steer_min_rtk = float): stays AUTO, guidance on, "
+                        "no GNSS alarm", "keep"),
+    "rtk_single": (20.0, "AUTO(degraded) + gnss alarm at once (holds course, slow RPM); beyond "
+                         "modes.gnss_hold_s (10 s) ALARM + gnss_timeout", "gnss_timeout"),
+    "heading_loss": (6.0, "AUTO(degraded) + gnss alarm, course held without new steps; guidance resumes "
+                          "when the heading is back (within gnss_hold_s)", "degraded"),
+    "gnss_dropout": (6.0, "AUTO(degraded) once stale (modes.gnss_stale_ms, 1 s), course held; guidance "
+                          "resumes on RTK float/fixed within gnss_hold_s, else ALARM + gnss_timeout", "degraded"),
+    "pilot_hang_steer": (None, "hang detected (pilot_hang alarm, AUTO(recovering)), Standby then Auto clears "
+                               "it, guidance resumes", "hang"),
+    "pilot_hang_keys": (None, "hang detected (pilot_hang alarm, AUTO(recovering)), Standby then Auto clears "
+                              "it, guidance resumes", "hang"),
+    "pilot_silent": (20.0, "pilot not answering (status timeout 3.5 s): pilot_hang/pilot_lost alarm; "
+                           "recovery or ALARM", "pilot_alarm"),
+    "pilot_key_standby": (None, "takeover: STANDBY + takeover alarm, the firmware stops keying the pilot",
+                          "takeover"),
+    "pilot_key_auto": (None, "takeover: STANDBY + takeover alarm, the firmware stops keying the pilot",
+                       "takeover"),
+    "pilot_key_minus10": (None, "takeover: STANDBY + takeover alarm, the firmware stops keying the pilot",
+                          "takeover"),
+    "pilot_key_plus10": (None, "takeover: STANDBY + takeover alarm, the firmware stops keying the pilot",
+                         "takeover"),
+    "pilot_key_minus1": (None, "takeover: STANDBY + takeover alarm, the firmware stops keying the pilot",
+                         "takeover"),
+    "pilot_key_plus1": (None, "takeover: STANDBY + takeover alarm, the firmware stops keying the pilot",
+                        "takeover"),
+    "st_noise": (40.0, "no reaction needed: keeps steering in AUTO (retries), no false takeover, no ALARM",
+                 "keep"),
+    "st_tx_lost": (20.0, "lost echo detected: seatalk alarm, then ALARM (cannot send keys)", "seatalk_alarm"),
+    "st_rx_lost": (20.0, "hears nothing: no status and no echo -> pilot or seatalk alarm", "pilot_alarm"),
+    "st_other_talker": (40.0, "collisions resolved by back-off and retry: keeps steering in AUTO, no false "
+                              "takeover, no ALARM", "keep"),
+    "motor_link_loss": (20.0, "ALARM + motor_link (the pilot keeps its course, slow RPM)", "alarm_motor"),
+    "estop": (10.0, "ESTOP latched at once, pilot Standby, 0 RPM; cleared by ACK after release -> STANDBY",
+              "estop"),
+    "reset": (None, "restarts in STANDBY, the leg restored from state.json, never engages by itself "
+                    "(only the person's ENGAGE brings AUTO back)", "reset"),
+    "button_standby": (None, "STANDBY at once, Standby key to the pilot", "standby"),
+    "button_engage": (None, "already in AUTO: stays in AUTO (re-engage is harmless)", "keep"),
+}
+
+
+def fault_list():
+    missing = sorted(set(scenarios.FAULTS) - set(SPEC))
+    return list(scenarios.FAULTS), missing
+
+
+def _person(r, end_s):
+    """A person on board: 5 s after the fault ended, if the firmware sits in ALARM they press STANDBY,
+    in ESTOP (input released) they press ACK; the runner's reengage_s then engages again."""
+
+    def act(t_us):
+        t_ms = t_us // 1000
+        mode = r.mode or ""
+        if mode.startswith("ALARM"):
+            r.send_input(t_ms, "button=STANDBY")
+        elif mode.startswith("ESTOP"):
+            r.send_input(t_ms, "button=ACK")
+        if t_ms < (end_s + 60.0) * 1000:
+            r.sched.at(t_us + 5_000_000, act)
+
+    r.sched.at(int((end_s + 5.0) * 1e6), act)
+
+
+def _records(out, res):
+    """Firmware log records with sim time (t_sim): controls, events."""
+    from .logdecode import decode_files, session_key
+
+    files = sorted(Path(out, "fw", "log").glob("*.tpl"), key=session_key)
+    if not files:
+        return [], []
+    d = decode_files([str(f) for f in files])
+    sessions = sorted({session_key(f)[1] for f in files})
+    t0 = [0.0] + [t for t, k, _ in sorted(res["events"]) if k == "reset"]
+    for rec in d.controls + d.events:
+        s = sessions.index(session_key(rec.file)[1])
+        rec.t_sim = t0[min(s, len(t0) - 1)] + ((rec.t_ms - TICK_BASE) & TICKS_MASK) / 1000.0
+    return d.controls, d.events
+
+
+def run_fault(job):
+    from .sim.runner import SimRun
+
+    name, track, out = job["fault"], job["track"], job["out"]
+    dur, _, _ = SPEC[name]
+    text = "%s@%g" % (name, T_FAULT) + (":%g" % dur if dur else "")
+    r = SimRun(track, out, seed=job.get("seed", 1), law="los", scenario="current", faults=[text],
+               reengage_s=REENGAGE_S)
+    end_s = T_FAULT + (dur or 0.0)
+    _person(r, end_s)
+    from .bench_perf import watchdog
+
+    dog = watchdog(r, job.get("timeout", 300))
+    res = r.run()
+    dog.cancel()
+    try:
+        ctl, evs = _records(out, res)
+    except Exception as e:  # a log the decoder cannot read is a finding too
+        ctl, evs = [], []
+        res.setdefault("decode_error", str(e))
+    row = evaluate(name, dur, ctl, evs, res, r)
+    row.update({"fault": text, "finished": res["finished_s"] is not None, "stop": res["stop_reason"],
+                "failure": res["failure"], "timed_out": dog.fired})
+    if dog.fired:
+        row["note"] = "firmware stopped answering, run killed: %s; %s" % (dog.fired, row["note"])
+    return row
+
+
+def _first(recs, pred, t_from, t_to=1e9):
+    for c in recs:
+        if t_from <= c.t_sim <= t_to and pred(c):
+            return c.t_sim
+    return None
+
+
+def evaluate(name, dur, ctl, evs, res, r):
+    _, expected, kind = SPEC[name]
+    F = T_FAULT
+    E = F + (dur or 0.0)
+    after = [c for c in ctl if c.t_sim >= F]
+    detect = None
+    ok = False
+    note = ""
+    fault_bits = 0
+
+    def guided_ok(bits):
+        return lambda c: c.mode == AUTO and c.guided and not (c.alarms & bits)
+
+    if kind == "keep":
+        bad = [c for c in after if c.t_sim <= E + 2.0 and (c.mode != AUTO or not c.guided)]
+        ok = not bad and any(c.t_sim <= E for c in after)
+        if name == "rtk_float":
+            detect = _first(after, lambda c: c.rtk == 2, F)  # fix.RTK_FLOAT
+            note = "firmware saw RTK float" if detect is not None else "firmware never saw float"
+        if bad:
+            b = bad[0]
+            note = "left guided AUTO at %.1f s: mode %d, alarms %s" % (b.t_sim, b.mode, _alarm_names(b.alarms))
+            detect = b.t_sim
+        fault_bits = AL["gnss"] | AL["takeover"]
+    elif kind in ("degraded", "gnss_timeout"):
+        fault_bits = AL["gnss"] | AL["gnss_timeout"]
+        detect = _first(after, lambda c: c.alarms & AL["gnss"], F)
+        blind = [c for c in after if detect is not None and detect <= c.t_sim <= E and c.guided]
+        if kind == "gnss_timeout":
+            to = _first(after, lambda c: c.alarms & AL["gnss_timeout"] or c.mode == ALARM, F)
+            ok = detect is not None and detect - F <= 1.5 and to is not None and abs(to - F - 10.0) <= 2.0
+            note = "ALARM/gnss_timeout at +%.1f s" % (to - F) if to is not None else "no gnss_timeout"
+        else:
+            ok = detect is not None and detect - F <= 1.5 and not blind
+            if blind:
+                note = "guidance ran while GNSS was bad"
+            to = _first(after, lambda c: c.alarms & AL["gnss_timeout"], F)
+            if to is not None:
+                note = (note + "; " if note else "") + "ALARM/gnss_timeout at +%.1f s" % (to - F)
+    elif kind == "hang":
+        fault_bits = AL["pilot_hang"] | AL["pilot_lost"]
+        detect = _first(after, lambda c: c.alarms & AL["pilot_hang"], F)
+        ok = detect is not None
+        if detect is None:
+            lost = _first(after, lambda c: c.alarms & AL["pilot_lost"] or c.mode == ALARM, F)
+            note = "no pilot_hang alarm" + (" (ALARM at +%.1f s)" % (lost - F) if lost else "")
+    elif kind == "pilot_alarm":
+        fault_bits = AL["pilot_hang"] | AL["pilot_lost"] | AL["seatalk"]
+        detect = _first(after, lambda c: c.alarms & fault_bits or c.mode == ALARM, F)
+        ok = detect is not None and detect - F <= 6.0
+    elif kind == "seatalk_alarm":
+        fault_bits = AL["seatalk"] | AL["pilot_lost"] | AL["pilot_hang"]
+        detect = _first(after, lambda c: c.alarms & fault_bits or c.mode == ALARM, F)
+        ok = detect is not None and detect <= E
+        if detect is None:
+            note = "no alarm while the firmware's bytes were lost"
+    elif kind == "alarm_motor":
+        fault_bits = AL["motor_link"]
+        detect = _first(after, lambda c: c.alarms & AL["motor_link"], F)
+        al = _first(after, lambda c: c.mode == ALARM, F)
+        ok = detect is not None and al is not None
+    elif kind == "estop":
+        fault_bits = AL["estop"]
+        detect = _first(after, lambda c: c.mode == ESTOP, F)
+        zero = _first(after, lambda c: c.mode == ESTOP and c.rpm_set == 0, F)
+        ok = detect is not None and detect - F <= 1.0 and zero is not None
+    elif kind == "takeover":
+        fault_bits = AL["takeover"]
+        detect = _first(after, lambda c: c.mode != AUTO, F)
+        tk = _first(after, lambda c: c.alarms & AL["takeover"], F)
+        ok = detect is not None and detect - F <= 2.0 and tk is not None
+        if ok:  # no keys sent between the takeover and the person's ENGAGE
+            eng = [t for t, k, txt in res["events"] if k == "input" and "ENGAGE" in txt and t > F]
+            t_eng = min(eng) if eng else 1e9
+            ks = [c.keys_sent for c in after if detect + 1.0 <= c.t_sim < t_eng]
+            if ks and ks[-1] != ks[0]:
+                ok = False
+                note = "kept keying the pilot after the takeover"
+        if tk is None and detect is not None:
+            note = "left AUTO without a takeover alarm"
+    elif kind == "standby":
+        detect = _first(after, lambda c: c.mode == STANDBY, F)
+        ok = detect is not None and detect - F <= 1.0
+    elif kind == "reset":
+        modes = [(t, v) for t, n, v in res["outputs"] if n == "mode" and t >= F]
+        eng = [t for t, k, txt in res["events"] if k == "input" and "ENGAGE" in txt and t > F]
+        first_auto = next((t for t, v in modes if v.startswith("AUTO")), None)
+        restored = any(e.kind == "STATE" and "restored" in e.text for e in evs)
+        ok = (bool(modes) and modes[0][1].startswith("STANDBY") and restored
+              and (first_auto is None or (eng and min(eng) <= first_auto)))
+        detect = modes[0][0] if modes else None
+        note = "leg restored" if restored else "leg not restored"
+    # recovery: back in guided AUTO without the fault's alarms, after the fault's end
+    t_rec_from = E if dur else F
+    rec = _first(ctl, guided_ok(fault_bits), max(t_rec_from, detect or t_rec_from) if kind != "keep" else t_rec_from)
+    if kind == "keep":
+        rec = E if ok else rec
+        if name == "rtk_float":
+            rec = _first(ctl, lambda c: c.rtk == 3, E)  # fix.RTK_FIXED again
+    recover = None if rec is None else rec - t_rec_from
+    # max truth |xte| from the fault's start to the recovery (or 30 s after its end)
+    t_hi = rec if rec is not None else E + 30.0
+    xs = [abs(float(row[24])) for row in r.truth_rows if F <= float(row[0]) <= max(t_hi, E)]
+    return {"name": name, "expected": expected, "reaction_ok": bool(ok),
+            "detect_s": None if detect is None else round(detect - F, 2),
+            "recover_s": None if recover is None else round(recover, 2),
+            "max_xte_m": round(max(xs), 2) if xs else None, "note": note,
+            "modes": [v for t, n, v in res["outputs"] if n == "mode" and t >= F][:8]}
+
+
+def _alarm_names(bits):
+    return ",".join(k for k, b in AL.items() if bits & b) or "none"
