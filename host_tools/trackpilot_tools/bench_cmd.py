@@ -272,7 +272,8 @@ def aggregate(results):
     return out
 
 
-RATIO_KEYS = ("straight_rms_m", "straight_max_m", "turn_max_m", "path_turn_max_m", "p95_m", "keystrokes")
+RATIO_KEYS = ("straight_rms_m", "straight_max_m", "straight_all_rms_m", "turn_max_m", "path_turn_max_m", "p95_m",
+              "within_1p5_pct", "keystrokes")
 
 
 def ratios(rows, best="los"):
@@ -307,21 +308,28 @@ def goals(rows, ratio, perf, faults, best="los"):
         return [r for r in rows if r["law"] == law and pred(r["case"])]
 
     out = []
+    def worst(rs, key):
+        v = [(r[key], r["case"]) for r in rs if r[key] is not None]
+        return max(v) if v else (None, "-")
+
     st = sel(best, STRAIGHT_GOAL_CASES)
     rms = [r["straight_rms_m"] for r in st if r["straight_rms_m"] is not None]
-    mx = [r["straight_max_m"] for r in st if r["straight_max_m"] is not None]
     fails = sum(r["failures"] for r in st)
+    w_rms, w_rms_case = worst(st, "straight_rms_m")
+    w_mx, w_mx_case = worst(st, "straight_max_m")
     out.append(("Straights 1-3 m/s, current <= 0.2 m/s, best law: RMS |XTE| <= 0.15 m (after settling)",
-                "worst case %s m, mean %s m over %d cases%s" % (_f(max(rms) if rms else None), _f(_mean(rms)), len(st),
-                                                               ", %d failed runs" % fails if fails else ""),
-                (max(rms) <= 0.15 and not fails) if rms else None))
-    out.append(("... max |XTE| <= 1.0 m after settling", "worst %s m" % _f(max(mx) if mx else None),
-                (max(mx) <= 1.0 and not fails) if mx else None))
+                "worst case %s m (%s), mean %s m over %d cases%s" % (
+                    _f(w_rms, "%.3f"), w_rms_case, _f(_mean(rms), "%.3f"), len(st), ", %d failed runs" % fails if fails else ""),
+                (w_rms <= 0.15 and not fails) if rms else None))
+    out.append(("... max |XTE| <= 1.0 m after settling", "worst %s m (%s)" % (_f(w_mx), w_mx_case),
+                (w_mx <= 1.0 and not fails) if w_mx is not None else None))
     tu = sel(best, TURN_CASES)
     pm = [r["path_turn_max_m"] for r in tu if r["path_turn_max_m"] is not None]
+    w_pm, w_pm_case = worst(tu, "path_turn_max_m")
+    per = ", ".join("%s %s" % (r["case"], _f(r["path_turn_max_m"])) for r in tu)
     out.append(("Turns (zig-zag 30/60/90, U-turns incl. 20 m): max <= 1.0 m against the planned path",
-                "worst %s m (the firmware's own path_xte, from its log)" % _f(max(pm) if pm else None),
-                max(pm) <= 1.0 if pm else None))
+                "worst %s m (%s); per case: %s (the firmware's own path_xte, from its log)" % (_f(w_pm), w_pm_case, per),
+                w_pm <= 1.0 if pm else None))
     gaps = [(r["case"], r["turn_max_m"], r["geo_min_m"]) for r in tu if r["turn_max_m"] is not None and r["geo_min_m"] is not None]
     worst = max(gaps, key=lambda g: g[1] - g[2]) if gaps else None
     u20 = next((r for r in tu if r["case"] == "uturn_20m"), None)
@@ -331,12 +339,12 @@ def goals(rows, ratio, perf, faults, best="los"):
                 if worst else "-", (worst[1] - worst[2] <= 0.5) if worst else None))
     mo = next((r for r in rows if r["law"] == best and r["case"] == "mooring_wind5"), None)
     out.append(("Mooring at <= 0.5 m/s (5 m/s cross wind): max <= 1.5 m",
-                "max %s m on the legs at <= 0.5 m/s%s" % (_f(mo and mo["slow_max_m"]),
+                "max %s m on the legs at <= 0.5 m/s%s" % (_f(mo and mo["slow_max_m"], "%.3f"),
                                                          ", %d failed runs" % mo["failures"] if mo and mo["failures"] else ""),
                 (mo["slow_max_m"] is not None and mo["slow_max_m"] <= 1.5 and not mo["failures"]) if mo else None))
-    rr = [v["straight_rms_m"] for v in ratio.values() if v.get("straight_rms_m")]
+    rr = [v["straight_all_rms_m"] for v in ratio.values() if v.get("straight_all_rms_m")]
     out.append(("The seed law reproduced as the baseline; ratio best/seed per scenario",
-                "stated per scenario below; straight RMS ratio median %s" % _f(statistics.median(rr) if rr else None),
+                "stated per scenario below; median ratio of the straight RMS (whole run) %s" % _f(statistics.median(rr) if rr else None),
                 True if rr else None))
     esp = perf.get("esp32_equiv", {})
     out.append(("One-hour mission, code included, fits an ESP32 heap without PSRAM (~110 KB)",

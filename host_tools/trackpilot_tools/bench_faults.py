@@ -158,8 +158,9 @@ def evaluate(name, dur, ctl, evs, res, r):
         return lambda c: c.mode == AUTO and c.guided and not (c.alarms & bits)
 
     if kind == "keep":
-        bad = [c for c in after if c.t_sim <= E + 2.0 and (c.mode != AUTO or not c.guided)]
-        ok = not bad and any(c.t_sim <= E for c in after)
+        w = E + 2.0 if dur else F + 10.0  # the window in which it must stay in guided AUTO
+        bad = [c for c in after if c.t_sim <= w and (c.mode != AUTO or not c.guided)]
+        ok = not bad and any(c.t_sim <= w for c in after)
         if name == "rtk_float":
             detect = _first(after, lambda c: c.rtk == 2, F)  # fix.RTK_FLOAT
             note = "firmware saw RTK float" if detect is not None else "firmware never saw float"
@@ -171,6 +172,11 @@ def evaluate(name, dur, ctl, evs, res, r):
     elif kind in ("degraded", "gnss_timeout"):
         fault_bits = AL["gnss"] | AL["gnss_timeout"]
         detect = _first(after, lambda c: c.alarms & AL["gnss"], F)
+        # no control record is written while no epoch arrives (dropout): the mode event counts too
+        ev = _first(evs, lambda e: (e.kind == "MODE" and "degraded" in e.text)
+                    or (e.kind == "ALARM" and "gnss" in e.text.lower()), F)
+        if ev is not None and (detect is None or ev < detect):
+            detect = ev
         blind = [c for c in after if detect is not None and detect <= c.t_sim <= E and c.guided]
         if kind == "gnss_timeout":
             to = _first(after, lambda c: c.alarms & AL["gnss_timeout"] or c.mode == ALARM, F)

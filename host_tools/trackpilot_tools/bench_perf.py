@@ -131,6 +131,16 @@ class watchdog:
         self._stop.set()
 
 
+def _stderr_figures(text):
+    f = {}
+    m = re.findall(r"peak heap (\d+) B .*?GC runs (\d+), max GC pause (\d+) us", text)
+    if m:
+        f["peak_heap_B"] = max(int(x[0]) for x in m)
+        f["gc_runs"] = sum(int(x[1]) for x in m)
+        f["gc_max_pause_us"] = max(int(x[2]) for x in m)
+    return f
+
+
 def run_mission(job):
     """One mission run in a worker. job: dict(track, out, wrapper, heap (bytes or None), seed,
     duration_s). Returns the figures (and ok: finished without a firmware failure)."""
