@@ -22,7 +22,7 @@ $(STAMP): requirements.txt pyproject.toml
 	touch $(STAMP)
 
 # The single-precision interpreter (cached; rebuilt only when its sources change).
-f32:
+f32: setup
 	bash tools/build_micropython_f32.sh
 
 # Every test under the chosen interpreter, then the unix-port tests again on a single-precision build.

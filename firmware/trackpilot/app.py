@@ -560,15 +560,16 @@ class App:
                 await asyncio.sleep_ms(0)
             elif kind == stlink.WAIT:
                 self._st_wake.clear()
-                dt = ticks_diff(act[1], t)
-                if dt > 0:
-                    try:
-                        await asyncio.wait_for_ms(self._st_wake.wait(), dt)
-                    except asyncio.TimeoutError:
-                        pass
+                # at least 1 ms: a wait that is already due must still let time pass, or this
+                # task would spin without ever letting the clock (and the bus) move on
+                dt = max(1, ticks_diff(act[1], t))
+                try:
+                    await asyncio.wait_for_ms(self._st_wake.wait(), dt)
+                except asyncio.TimeoutError:
+                    pass
             else:  # idle: wake on a new epoch, a received byte or the pilot's own timers
                 self._st_wake.clear()
-                wait_ms = self.pilot.next_due_ms(t)
+                wait_ms = max(1, self.pilot.next_due_ms(t))  # >= 1 ms: see above
                 try:
                     await asyncio.wait_for_ms(self._st_wake.wait(), wait_ms)
                 except asyncio.TimeoutError:

@@ -151,3 +151,15 @@ def test_esp32_like_uart_rx_timeout(straight, tmp_path, rx_timeout_chars, echo_t
         assert r.pilot.keys_accepted == 0  # not even Auto got through
         assert ms[-1][1] == "ALARM", ms
         assert any(int(v) & AL_SEATALK for t, n, v in res["outputs"] if n == "alarms")
+
+
+@pytest.mark.parametrize("seed", [1, 3, 4, 6])
+def test_seatalk_noise_never_stalls_the_firmware(tmp_path, seed):
+    """Seeds that once made the SeaTalk task spin on an already-due wait (no lockstep progress)."""
+    track = benchtracks.straight(str(tmp_path / "s.csv"), 2.0)
+    r, res, summ = sail(track, tmp_path / "n", seed=seed, faults=["st_noise@20:60"],
+                        overrides={"sim": {"start_offset_m": 5.0},
+                                   "water": {"current_mps": 0.2, "current_dir_deg": 90.0}},
+                        duration_s=150)
+    assert res["failure"] is None, res["failure"]
+    assert summ["finished"], res["stop_reason"]
