@@ -79,6 +79,10 @@ class App:
         self.rpm_cmd = 0
         self.heading_cmd_deg = None
         self.relative_cmd_deg = 0.0
+        self.compass_offset_deg = None  # pilot compass - true heading, filtered
+        self._offset_status_ms = None
+        self._offset_n = 0
+        self._prev_heading = None
         self.refusal = ""
         self.alive = {}
         self.stop_event = asyncio.Event()
@@ -348,9 +352,14 @@ class App:
         self.pilot.note_motion(t_ms, fix.heading_deg if fix.heading_valid else None,
                                fix.sog_mps if fix.vel_valid else None)
         self.apply_pilot(t_ms)
+        self.update_compass_offset(t_ms)
         if mm.pilot == M.PILOT_STEER and out is not None and fix.heading_valid and self.pilot.commanding():
-            # relative to the pilot's own compass: cancels its compass error (seed report 4.7)
-            self.relative_cmd_deg = wrap180(out.heading_cmd_deg - fix.heading_deg)
+            # in the pilot's own compass frame: cancels its compass error (seed report 4.7)
+            if self.compass_offset_deg is not None:
+                target = out.heading_cmd_deg + self.compass_offset_deg
+                self.relative_cmd_deg = wrap180(target - self.pilot.heading_deg)
+            else:
+                self.relative_cmd_deg = wrap180(out.heading_cmd_deg - fix.heading_deg)
             self.pilot.steer_to(self.relative_cmd_deg, t_ms)
         # the motor
         self.rpm_cmd = self.motor_rpm(out)
@@ -378,6 +387,42 @@ class App:
         # PILOT_HOLD: the pilot keeps its course in Auto; no new steps are sent.
         # PILOT_RECOVER: the driver runs Standby -> Auto -> re-step itself (st2000.py).
         self._st_wake.set()
+
+    def update_compass_offset(self, t_ms):
+        """Low-pass estimate of (pilot compass - true heading). Steering to command + offset in the
+        pilot's frame cancels its compass error like the instantaneous difference did, without
+        feeding wave yaw and the compass's lag and 2 Hz sampling into every course step (which
+        cost keystrokes and ~0.1 m RMS). New compass readings only, and only while the boat is not
+        turning fast (the compass lags the true heading in a turn)."""
+        p = self.pilot
+        fix = self.fix
+        tc_s = self.cfg["pilot"]["compass_offset_tc_s"]
+        rate_dps = None
+        if fix.heading_valid:
+            if self._prev_heading is not None:
+                dt_s = ticks_diff(t_ms, self._prev_heading[0]) / 1000.0
+                if dt_s > 0:
+                    rate_dps = wrap180(fix.heading_deg - self._prev_heading[1]) / dt_s
+            self._prev_heading = (t_ms, fix.heading_deg)
+        else:
+            self._prev_heading = None
+        if tc_s <= 0 or p.heading_deg is None or not p.status_fresh(t_ms):
+            self.compass_offset_deg = None if tc_s <= 0 else self.compass_offset_deg
+            return
+        if p.last_status_ms == self._offset_status_ms or rate_dps is None:
+            return
+        self._offset_status_ms = p.last_status_ms
+        if abs(rate_dps) > self.cfg["pilot"]["compass_offset_max_rate_dps"]:
+            return
+        sample = wrap180(p.heading_deg - fix.heading_deg)
+        if self.compass_offset_deg is None:
+            self.compass_offset_deg = sample
+            self._offset_n = 1
+            return
+        self._offset_n += 1
+        # a plain mean over the first samples, then an exponential filter (one sample a second)
+        alpha = max(1.0 / self._offset_n, 1.0 / tc_s)
+        self.compass_offset_deg = wrap180(self.compass_offset_deg + alpha * wrap180(sample - self.compass_offset_deg))
 
     def motor_rpm(self, out):
         mc = self.cfg["motor"]

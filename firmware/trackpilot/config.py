@@ -53,6 +53,8 @@ SCHEMA = {
         "odd_rule": ("dotnet", "s", ("dotnet", "knauf"), None),
         "status_timeout_ms": (3500, "i", 1000, 30000),
         "deadband_deg": (1, "i", 0, 10),
+        "compass_offset_tc_s": (20.0, "f", 0.0, 600.0),  # 0: steer by the instantaneous difference
+        "compass_offset_max_rate_dps": (2.0, "f", 0.1, 90.0),  # no offset samples in faster turns
         # hang check (c): error above converge_err_deg for a whole window in which the heading
         # turned towards the locked course by less than converge_progress_deg (st2000.py)
         "converge_err_deg": (15.0, "f", 5.0, 90.0),

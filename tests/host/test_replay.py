@@ -8,6 +8,8 @@ import pytest
 from trackpilot_tools.mpy import ROOT
 from trackpilot_tools.replay_cmd import run_replay
 
+sys.path.insert(0, str(ROOT / "firmware"))
+
 
 @pytest.fixture(scope="module")
 def sim_run(tmp_path_factory):
@@ -40,9 +42,12 @@ def test_replay_with_another_law_differs(sim_run):
 
 def test_replay_of_a_cut_log_reports_damage(sim_run, tmp_path):
     out, logs = sim_run
+    from trackpilot import logfmt
+
     data = open(logs[0], "rb").read()
+    offsets = [r.offset for r in logfmt.iter_records(data) if r.type == "control"]
     cut = tmp_path / "cut.tpl"
-    cut.write_bytes(data[: len(data) * 2 // 3 + 7])
+    cut.write_bytes(data[: offsets[len(offsets) * 2 // 3] + 3])  # 3 bytes into a control record
     summary, _ = run_replay([cut], config=out / "config.json")
     assert summary["damage"] >= 1
     assert summary["heading_identical"] == summary["guided"] > 0
