@@ -80,6 +80,7 @@ class App:
         self.heading_cmd_deg = None
         self.relative_cmd_deg = 0.0
         self.compass_offset_deg = None  # pilot compass - true heading, filtered
+        self.seed_baseline = cfg["guidance"]["law"] == "seed"
         self._offset_status_ms = None
         self._offset_n = 0
         self._prev_heading = None
@@ -355,7 +356,8 @@ class App:
         self.update_compass_offset(t_ms)
         if mm.pilot == M.PILOT_STEER and out is not None and fix.heading_valid and self.pilot.commanding():
             # in the pilot's own compass frame: cancels its compass error (seed report 4.7)
-            if self.compass_offset_deg is not None:
+            # the seed baseline keeps its pinned form: course = pilot compass + relative setpoint
+            if self.compass_offset_deg is not None and not self.seed_baseline:
                 target = out.heading_cmd_deg + self.compass_offset_deg
                 self.relative_cmd_deg = wrap180(target - self.pilot.heading_deg)
             else:
