@@ -18,6 +18,10 @@ sys.path.insert(0, str(ROOT / "firmware"))
 
 from trackpilot import geo  # noqa: E402  (CPython import of the same module)
 from trackpilot_tools.mpy import run_script  # noqa: E402
+import pytest
+
+# runs firmware code under $MICROPYTHON: also part of the float32 pass of `make test`
+pytestmark = pytest.mark.mpy
 
 WGS = Geodesic.WGS84
 HELPER = Path(__file__).with_name("_geo_mpy.py")

@@ -15,6 +15,9 @@ from pyubx2 import GET, UBXMessage, UBXReader
 
 from trackpilot_tools.gnss_cmd import run_decode
 
+# runs firmware code under $MICROPYTHON: also part of the float32 pass of `make test`
+pytestmark = pytest.mark.mpy
+
 DATA = Path(__file__).resolve().parents[1] / "data" / "gnss"
 CAPTURES = sorted(DATA.glob("*.log"))
 

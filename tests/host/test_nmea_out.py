@@ -4,6 +4,10 @@ import random
 from pynmeagps import NMEAReader
 
 from trackpilot_tools.mpy import ROOT, run_script
+import pytest
+
+# runs firmware code under $MICROPYTHON: also part of the float32 pass of `make test`
+pytestmark = pytest.mark.mpy
 
 
 def test_sentences_parse_and_keep_full_precision():
