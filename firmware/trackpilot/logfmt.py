@@ -293,17 +293,21 @@ def _quant(x, scale):
         return 0
 
 
+_SCALE_MOD = {}  # field name -> (scale, modulus), for quantized()
+
+
 def quantized(name, x):
     """`x` exactly as the log stores it and a decoder gives it back (int / scale, wrapped).
     The app feeds its control step with these values, so a replay of the log sees exactly the
     inputs the boat saw and reproduces its commands bit for bit."""
-    for f in FIELDS:
-        if f[0] == name:
-            q = _quant(x, f[1])
-            if f[4]:
-                q %= f[4]
-            return q if f[1] == 1 else q / f[1]
-    raise KeyError(name)
+    if not _SCALE_MOD:
+        for f in FIELDS:
+            _SCALE_MOD[f[0]] = (f[1], f[4])
+    scale, mod = _SCALE_MOD[name]
+    q = _quant(x, scale)
+    if mod:
+        q %= mod
+    return q if scale == 1 else q / scale
 
 
 def _wrap(d, mod):
