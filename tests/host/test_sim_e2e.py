@@ -163,3 +163,22 @@ def test_seatalk_noise_never_stalls_the_firmware(tmp_path, seed):
                         duration_s=150)
     assert res["failure"] is None, res["failure"]
     assert summ["finished"], res["stop_reason"]
+
+
+def test_buttons_through_the_firmware(straight, tmp_path):
+    """HMI presses in the simulator: ENGAGE refused without RTK fixed (reason logged), STANDBY
+    honoured at once, no engage by itself when RTK comes back."""
+    from trackpilot_tools.logdecode import decode_files
+
+    r, res, summ = sail(straight, tmp_path / "b", seed=2, duration_s=45,
+                        overrides={"sim": {"engage_max_tries": 0}},  # only these presses
+                        faults=["rtk_float@0:20", "button_engage@5", "button_engage@25", "button_standby@35"])
+    ms = [(t, v) for t, n, v in res["outputs"] if n == "mode"]
+    assert not any(v.startswith("AUTO") for t, v in ms if t < 20), ms
+    d = decode_files(sorted((tmp_path / "b" / "fw" / "log").glob("*.tpl")))
+    refused = [e for e in d.events if e.kind == "REFUSED"]
+    assert any("RTK float" in e.text for e in refused), [e.text for e in refused]
+    auto = [t for t, v in ms if v.startswith("AUTO")]
+    assert auto and auto[0] >= 25.0, ms  # only the person's press after RTK came back engages
+    after = [(t, v) for t, v in ms if t >= 35.0]
+    assert after and after[0][1] == "STANDBY" and after[0][0] < 35.3, after
