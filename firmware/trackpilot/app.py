@@ -797,9 +797,12 @@ class App:
         self.log.close()
 
     def cfg_hash(self):
-        import json
-
+        """An id of the configuration for the log header, one setting at a time (a JSON dump of
+        the whole configuration was the largest allocation at start-up)."""
         h = 0
-        for c in json.dumps(self.cfg):
-            h = (h * 31 + ord(c)) & 0xFFFFFFFF
+        for sec in sorted(self.cfg):
+            body = self.cfg[sec]
+            for key in sorted(body):
+                for b in ("%s.%s=%r;" % (sec, key, body[key])).encode():
+                    h = (h * 31 + b) & 0xFFFFFFFF
         return h
