@@ -61,7 +61,6 @@ class App:
         self.alarm_reason = ""
         self._pilot_action = None
         self.law = guidance.make_law(cfg["guidance"], bcfg)
-        self.guidance_out = None
         self.track = None
         self.progress = None
         self.track_id = ""
@@ -87,10 +86,8 @@ class App:
         self.refusal = ""
         self.alive = {}
         self.stop_event = asyncio.Event()
-        self.finished = False
         self.peak_heap = 0  # largest live heap (bytes, right after a collection)
         self._st_wake = asyncio.Event()
-        self.seatalk_writes = 0
         self.last_state_save_ms = None
         self._empty = bytearray(0)
         self._last_gc_ms = self.clock()
@@ -347,7 +344,6 @@ class App:
             mm.xte(t_ms, self.progress.xte_m)
             if self.progress.finished:
                 mm.arrived(t_ms, self.progress.finish_reason)
-        self.guidance_out = out
         self.drain_events()
         # the pilot; the true heading and speed let it tell a pilot that stopped steering
         self.pilot.note_motion(t_ms, fix.heading_deg if fix.heading_valid else None,
@@ -408,8 +404,10 @@ class App:
             self._prev_heading = (t_ms, fix.heading_deg)
         else:
             self._prev_heading = None
-        if tc_s <= 0 or p.heading_deg is None or not p.status_fresh(t_ms):
-            self.compass_offset_deg = None if tc_s <= 0 else self.compass_offset_deg
+        if tc_s <= 0:
+            self.compass_offset_deg = None  # switched off: the seed report's method
+            return
+        if p.heading_deg is None or not p.status_fresh(t_ms):
             return
         if p.last_status_ms == self._offset_status_ms or rate_dps is None:
             return
@@ -603,7 +601,6 @@ class App:
                 one[0] = act[1]
                 uart.init(parity=0 if act[2] == "E" else 1)  # waits for TX to drain on the ESP32
                 uart.write(one)
-                self.seatalk_writes += 1
                 await asyncio.sleep_ms(0)
             elif kind == stlink.WAIT:
                 self._st_wake.clear()

@@ -39,7 +39,6 @@ from trackpilot.fix import RTK_FIXED, RTK_FLOAT, RTK_NONE, RTK_SINGLE, Fix
 # before they are dropped and a cut one costs nothing; longer frames are skipped by length.
 BUF_SIZE = const(1100)
 EPOCH_MS = const(200)  # nominal navigation epoch: 5 Hz (CFG-RATE-MEAS in ubxcfg.rover_items)
-GNSS_EPOCH = EPOCH_MS
 NMEA_MAX = const(480)  # NMEA says 82; u-blox PUBX,03 lines run to 400+
 UBX_MAX_SKIP = const(2048)  # longer "UBX" lengths are taken as garbage (NAV-SAT: 8+12*nSV)
 

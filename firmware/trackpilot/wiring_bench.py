@@ -8,6 +8,7 @@ under the unix port (tests/host/_device_main.py).
 import time
 
 from trackpilot.compat import TICKS_MASK
+from trackpilot.simio import SimLink
 from trackpilot.wiring_sim import Wiring as _SimWiring
 
 
@@ -25,14 +26,7 @@ class BenchLink:
     def ticks_ms(self):
         return time.ticks_ms() & TICKS_MASK
 
-    def stream(self, dev):
-        from trackpilot.simio import SimStream
-
-        s = self.streams.get(dev)
-        if s is None:
-            s = SimStream(dev)
-            self.streams[dev] = s
-        return s
+    stream = SimLink.stream  # the same lazily created SimStreams as in simulation
 
 
 class Wiring(_SimWiring):

@@ -8,8 +8,6 @@ Usage (main.py):
     w = Wiring(cfg)
     app = App(w, cfg, problems, reset_cause=w.reset_cause())
 """
-import sys
-
 import machine
 import os
 import time
@@ -149,7 +147,3 @@ def _seeded_prng():
 
     b = os.urandom(4)  # two boxes on one bus must not back off in step
     return Prng(b[0] | (b[1] << 8) | (b[2] << 16) | (b[3] << 24))
-
-
-def _unused():
-    return sys
