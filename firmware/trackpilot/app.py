@@ -604,8 +604,9 @@ class App:
                 await asyncio.sleep_ms(0)
             elif kind == stlink.WAIT:
                 self._st_wake.clear()
-                # at least 1 ms: a wait that is already due must still let time pass, or this
-                # task would spin without ever letting the clock (and the bus) move on
+                # at least 1 ms: defence in depth. A wait that is already due must still let time
+                # pass, or this task spins without the clock (and the bus) moving on; that once
+                # happened when st2000.next_due_ms said "now" for a key poll() held back.
                 dt = max(1, ticks_diff(act[1], t))
                 try:
                     await asyncio.wait_for_ms(self._st_wake.wait(), dt)

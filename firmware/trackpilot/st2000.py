@@ -405,8 +405,9 @@ class St2000:
         if s == ENGAGED:
             if self._key is not None:
                 due.append(ticks_diff(self._key_t, t_ms) + self.confirm_timeout_ms)
-            elif self.target_course_deg is not None and self.course_deg is not None and abs(
-                    wrap180(self.target_course_deg - self.course_deg)) > self.tolerance_deg:
+            elif (self.target_course_deg is not None and self.course_deg is not None
+                  and self._keys_allowed() and abs(
+                      wrap180(self.target_course_deg - self.course_deg)) > self.tolerance_deg):
                 due.append(0 if self._last_key_t is None else
                            ticks_diff(self._last_key_t, t_ms) + self.key_interval_ms)
             if self._conv_t0 is not None:
@@ -448,11 +449,15 @@ class St2000:
         self._want = None
         self.state = IDLE
 
+    def _keys_allowed(self):
+        """May a course key go out now? (poll() and next_due_ms() must agree, or a shell that
+        sleeps on next_due_ms() would be woken "now" for a key that poll() will not send.)"""
+        # a doubtful mode: maybe a person; no keys until the next status tells
+        return self.mode == st.MODE_AUTO and not self.status_lost and self._mode_suspect is None
+
     def _poll_engaged(self, t_ms):
-        if self.mode != st.MODE_AUTO or self.status_lost:
+        if not self._keys_allowed():
             return
-        if self._mode_suspect is not None:
-            return  # maybe a person: no keys until the next status tells
         if self._converge_check(t_ms):
             return
         # (a) keystrokes not followed

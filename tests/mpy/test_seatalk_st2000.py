@@ -442,3 +442,14 @@ def test_foreign_keystroke_is_still_immediate():
     r.drv.on_datagram(st.encode_86(st.KEY_STANDBY, 0), r.t)
     r.drv.poll(r.t)
     T.eq(r.drv.state, sp.TAKEN_OVER)
+
+
+def test_no_busy_wake_while_keys_are_held_back():
+    # While a doubtful mode waits for the next status, poll() sends no keys, so next_due_ms()
+    # must not say "now" (a shell sleeping on it would spin without time passing).
+    r = _engaged_rig()
+    r.drv.steer_to(20, r.t)
+    r.drv.on_datagram(st.encode_84(200, r.drv.course_deg, st.MODE_WIND), r.t)
+    r.t += 500
+    r.drv.poll(r.t)
+    T.true(r.drv.next_due_ms(r.t) > 0, "due now although no key may be sent")
