@@ -6,7 +6,7 @@ import sys
 
 # (command, module, help)
 COMMANDS = [
-    ("track", "trackpilot_tools.track_cmd", "check, import and upload tracks"),
+    ("track", "trackpilot_tools.track_cmd", "check and import tracks"),
     ("gnss", "trackpilot_tools.gnss_cmd", "decode raw GNSS captures with the firmware's parser"),
     ("seatalk", "trackpilot_tools.seatalk_cmd", "decode SeaTalk1 captures with the firmware's parser"),
     ("sim", "trackpilot_tools.sim_cmd", "sail a track with the real firmware against a simulated boat"),
@@ -22,7 +22,10 @@ COMMANDS = [
 
 
 def build_parser():
-    parser = argparse.ArgumentParser(prog="trackpilot", description=__doc__.split("\n")[0])
+    parser = argparse.ArgumentParser(
+        prog="trackpilot",
+        description="trackpilot host tools: tracks, firmware, logs, replay, live monitor, simulator "
+                    "(README.md). Commands that run firmware code use $MICROPYTHON.")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
     for name, modname, helptext in COMMANDS:
