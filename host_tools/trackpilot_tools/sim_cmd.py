@@ -81,7 +81,8 @@ def run(args):
         plots = report.plot_truth(str(out), res["geom"]) + report.plot_firmware_log(str(out))
     print((out / "summary.md").read_text())
     print("output folder: %s" % out)
-    print("  firmware log: %s" % ", ".join(summ["firmware_log_files"]) if summ["firmware_log_files"]
+    print("  firmware log: %s" % ", ".join(str(out / f) for f in summ["firmware_log_files"])
+          if summ["firmware_log_files"]
           else "  firmware log: none written")
     print("  truth trace:  %s" % (out / "truth.csv"))
     print("  summary:      %s, %s" % (out / "summary.json", out / "summary.md"))
