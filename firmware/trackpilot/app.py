@@ -33,6 +33,12 @@ _RTK_BY_NAME = {"single": RTK_SINGLE, "float": RTK_FLOAT, "fixed": RTK_FIXED}
 TASKS = ("gnss", "seatalk_rx", "seatalk_tx", "pilot", "motor", "wind", "inputs", "logger", "telemetry")
 
 
+def _error_text(e):
+    """An exception as one line for an event: the message, else the exception's type."""
+    text = str(e)
+    return text if text else type(e).__name__
+
+
 class App:
     def __init__(self, wiring, cfg, cfg_problems=(), reset_cause="unknown"):
         from trackpilot import gnss, guidance, logger, motor, mwv, seatalk, st2000, stlink
@@ -110,26 +116,34 @@ class App:
 
     # ------------------------------------------------------------------ track and state
     def load_track(self, path):
-        """Validate and activate a track file; only in STANDBY; a bad file never replaces the
-        active track. Returns (ok, message)."""
+        """Validate and activate a track file; only in STANDBY. Never raises: a bad or too large
+        file, or one that does not fit in memory, is refused with a TRACK event and the active
+        track stays. Returns (ok, message)."""
         from trackpilot import progress, track
 
         if self.mm.mode == M.AUTO:
             return False, "track not changed: only in STANDBY"
+        new = None
         try:
-            with open(path) as f:
-                text = f.read()
-            new = track.parse_track_csv(text)
+            new, new_id = track.load_file(path)
             warnings = track.validate(new, self.cfg["boat"])
-        except (OSError, ValueError) as e:
-            msg = "track %s rejected: %s" % (path, e)
+            # the seed baseline uses the plain seed leg-advance rule (BOAT_AND_BENCHMARK.md)
+            rule = progress.RULE_SEED if self.cfg["guidance"]["law"] == "seed" else progress.RULE_ROBUST
+            prog = progress.Progress(new, rule)
+        except MemoryError:
+            new = None
+            gc.collect()
+            msg = "track %s rejected: not enough memory to load it (%d B free); the previous track stays" % (
+                path, gc.mem_free())
+            self.event("TRACK", msg)
+            return False, msg
+        except Exception as e:  # a file error, a bad track, anything: the app goes on without it
+            msg = "track %s rejected: %s" % (path, _error_text(e))
             self.event("TRACK", msg)
             return False, msg
         self.track = new
-        # the seed baseline uses the plain seed leg-advance rule (BOAT_AND_BENCHMARK.md)
-        rule = progress.RULE_SEED if self.cfg["guidance"]["law"] == "seed" else progress.RULE_ROBUST
-        self.progress = progress.Progress(new, rule)
-        self.track_id = track.track_id(text)
+        self.progress = prog
+        self.track_id = new_id
         self.event("TRACK", "loaded %s: %d waypoints, id %s" % (path, len(new.waypoints), self.track_id))
         for w in warnings:
             self.event("TRACK", "warning: " + w)

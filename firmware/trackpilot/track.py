@@ -496,24 +496,43 @@ def validate(trk, boat=None):
     return warnings
 
 
-def track_id(text):
+def track_id(src):
     """Short id of a track file's content: its CRC-32 (as zlib.crc32) in 8 hex digits, to match
-    saved state and logs with the file. binascii when the build has it, else a bitwise loop (a
-    one-off per load)."""
-    if isinstance(text, str):
-        text = text.encode()
+    saved state and logs with the file. src: str, bytes or a binary file (read in 256 B chunks
+    from where it is). binascii when the build has it, else a bitwise loop (a one-off per load)."""
+    if isinstance(src, str):
+        src = src.encode()
+    if isinstance(src, (bytes, bytearray)):
+        return "%08x" % _crc32(src, 0)
+    crc = 0
+    while True:
+        chunk = src.read(256)
+        if not chunk:
+            return "%08x" % crc
+        crc = _crc32(chunk, crc)
+
+
+def _crc32(data, crc):
     try:
         import binascii
 
-        crc = binascii.crc32(text) & 0xFFFFFFFF
+        return binascii.crc32(data, crc) & 0xFFFFFFFF
     except (ImportError, AttributeError):
-        crc = 0xFFFFFFFF
-        for b in text:
+        crc ^= 0xFFFFFFFF
+        for b in data:
             crc ^= b
             for _ in range(8):
                 crc = (crc >> 1) ^ (0xEDB88320 if crc & 1 else 0)
-        crc ^= 0xFFFFFFFF
-    return "%08x" % crc
+        return crc ^ 0xFFFFFFFF
+
+
+def load_file(path, min_leg_m=MIN_LEG_M):
+    """(Track, track id) of a track file, parsed line by line; raises TrackError, OSError (and
+    MemoryError when even a valid track does not fit)."""
+    with open(path, "rb") as f:
+        trk = parse_track_csv(f, min_leg_m=min_leg_m)
+        f.seek(0)
+        return trk, track_id(f)
 
 
 def leg_table(trk):
