@@ -20,7 +20,7 @@ import gc
 from trackpilot import VERSION
 from trackpilot import modes as M
 from trackpilot import control, logfmt, ntrip, seatalk
-from trackpilot.compat import ticks_diff, wrap180
+from trackpilot.compat import ticks_add, ticks_diff, wrap180
 from trackpilot.fix import RTK_FIXED, RTK_FLOAT, RTK_NAMES, RTK_SINGLE, Fix
 
 try:
@@ -113,6 +113,8 @@ class App:
         self.prof_us = []
         self.prof_alloc = []
         self._prof_acc = [0, 0]
+        self.on_stable = None  # called once after bootguard.STABLE_MS with every task alive
+        self._stable_due_ms = None
 
     # ------------------------------------------------------------------ track and state
     def load_track(self, path):
@@ -753,6 +755,7 @@ class App:
                 self.event("FAULT", "task not alive: %s; watchdog not fed" % ",".join(dead))
             else:
                 self.w.feed_watchdog()
+                self._check_stable(t)
             if ticks_diff(t, self._last_gc_ms) >= 1000:
                 # collect once a second between control epochs: short, predictable pauses instead
                 # of one long one whenever the heap runs full; the live heap after it is the
@@ -768,6 +771,20 @@ class App:
                 if live > self.peak_heap:
                     self.peak_heap = live
             await asyncio.sleep_ms(self.grid_ms(200))
+
+    def _check_stable(self, t):
+        """Tell the boot-loop guard once the app has run stably (bootguard.py)."""
+        if self.on_stable is None:
+            return
+        if self._stable_due_ms is None:
+            from trackpilot.bootguard import STABLE_MS
+
+            self._stable_due_ms = ticks_add(t, STABLE_MS)
+        elif ticks_diff(t, self._stable_due_ms) >= 0:
+            cb = self.on_stable
+            self.on_stable = None
+            cb()
+            self.event("BOOT", "running stably: boot-loop count cleared")
 
     def dead_tasks(self, t):
         # input-driven tasks only beat when bytes arrive; they are checked against their data
