@@ -772,6 +772,27 @@ class App:
                     self.peak_heap = live
             await asyncio.sleep_ms(self.grid_ms(200))
 
+    def _start_ntrip(self):
+        """RTK corrections: caster -> GNSS UART (once; the client reconnects by itself)."""
+        if self._ntrip_started:
+            return
+        self._ntrip_started = True
+        asyncio.create_task(ntrip.run_client(self.cfg["ntrip"], self.w.gnss_uart.write, self.clock,
+                                             gga=self.gga_bytes, events=self.event))
+
+    async def task_wifi(self):
+        """Wi-Fi (wifi.WifiLink, built by the board's wiring): start, then poll; its state goes
+        to the HMI and the status datagram; NTRIP waits for the first link."""
+        link = self.w.wifi
+        for text in link.start(self.clock()):
+            self.event("WIFI", text)
+        while True:
+            for text in link.poll(self.clock()):
+                self.event("WIFI", text)
+            if link.is_up() and self.cfg["ntrip"]["enabled"]:
+                self._start_ntrip()
+            await asyncio.sleep_ms(500)
+
     def _check_stable(self, t):
         """Tell the boot-loop guard once the app has run stably (bootguard.py)."""
         if self.on_stable is None:
@@ -817,10 +838,11 @@ class App:
             self.task_supervisor(),
         ):
             asyncio.create_task(coro)
-        if self.cfg["ntrip"]["enabled"]:
-            # RTK corrections: caster -> GNSS UART (Wi-Fi is brought up by the wiring)
-            asyncio.create_task(ntrip.run_client(self.cfg["ntrip"], self.w.gnss_uart.write, self.clock,
-                                                 gga=self.gga_bytes, events=self.event))
+        self._ntrip_started = False
+        if getattr(self.w, "wifi", None) is not None:
+            asyncio.create_task(self.task_wifi())  # starts NTRIP once the link is up
+        elif self.cfg["ntrip"]["enabled"]:
+            self._start_ntrip()
         await self.stop_event.wait()
         self.event("STOP", "application stopped")
         self.log.close()
