@@ -469,9 +469,13 @@ class LogEncoder:
     def encode_track(self, waypoints, track_id=""):
         """TRACK record(s) (bytes): waypoints with attributes lat_e7, lon_e7, speed_mps, name,
         radius_m (None allowed). Long tracks are split into several records."""
+        return b"".join(list(self.iter_track(waypoints, track_id)))
+
+    def iter_track(self, waypoints, track_id=""):
+        """The TRACK records of encode_track one at a time (each under 1 KB): a long track is
+        never encoded into one large buffer."""
         idb = track_id.encode()[:64]
         total = len(waypoints)
-        out = []
         first = 0
         while True:
             body = bytearray()
@@ -504,11 +508,10 @@ class LogEncoder:
             j += 1
             head[j : j + len(idb)] = idb
             j += len(idb)
-            out.append(_whole_frame(T_TRACK, bytes(head[:j]) + bytes(body)))
+            yield _whole_frame(T_TRACK, bytes(head[:j]) + bytes(body))
             first = k
             if first >= total:
                 break
-        return b"".join(out)
 
 
 def _whole_frame(typ, payload):
