@@ -76,6 +76,8 @@ class Leg:
         self.turn_deg = 0.0  # turn at waypoint i+1 into the next leg (+ starboard); 0 on the last
         self.speed_mps = speed_mps
         self.start_m = 0.0  # track distance from waypoint 0 to waypoint i
+        self.lat_e7 = 0  # waypoint i (set by Track.leg)
+        self.lon_e7 = 0
         rad = math.radians(bearing_deg)
         self.ux = math.sin(rad)  # unit vector of the leg in its frame (east, north)
         self.uy = math.cos(rad)
@@ -209,6 +211,8 @@ class Track:
         end_brg = geo.final_bearing_deg(lat[i], lon[i], lat[i + 1], lon[i + 1])
         leg = Leg(i, d, brg, end_brg, self.speed_mps(i))
         leg.start_m = self.start_m[i]
+        leg.lat_e7 = lat[i]  # the start waypoint: the origin of the leg's frame
+        leg.lon_e7 = lon[i]
         if i + 2 < self.n:
             brg_next = geo.dist_bearing(lat[i + 1], lon[i + 1], lat[i + 2], lon[i + 2])[1]
             leg.turn_deg = wrap180(brg_next - end_brg)
