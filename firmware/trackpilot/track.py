@@ -117,8 +117,13 @@ _PAGE = 1 << _PAGE_SHIFT  # waypoints per page: no block larger than 1 KB is eve
 class _Paged:
     """An int/float array in pages of _PAGE items: loads in a fragmented heap."""
 
-    def __init__(self, code, item_bytes, n):
-        self.pages = [array(code, bytearray(item_bytes * min(_PAGE, n - k))) for k in range(0, n, _PAGE)]
+    def __init__(self, code, item_bytes, n, zeros):
+        """zeros: a bytearray of at least item_bytes * _PAGE zero bytes (one for all pages: no
+        temporary per page to leave holes in the heap)."""
+        self.pages = []
+        for k in range(0, n, _PAGE):
+            m = item_bytes * min(_PAGE, n - k)
+            self.pages.append(array(code, zeros if m == len(zeros) else bytearray(m)))
 
     def __getitem__(self, i):
         return self.pages[i >> _PAGE_SHIFT][i & (_PAGE - 1)]
@@ -136,15 +141,21 @@ class Track:
         """name_bytes: the names' bytes per page (as _survey counts them)."""
         self.name = name
         self.n = 0
-        self.lat_e7 = _Paged("i", 4, n_max)
-        self.lon_e7 = _Paged("i", 4, n_max)
-        self.speed_mmps = _Paged("H", 2, n_max)  # mm/s (at most 8000)
-        self.radius_cm = _Paged("H", 2, n_max)  # 0: none
-        self.line_no = _Paged("H", 2, n_max)
-        self.name_end = _Paged("H", 2, n_max)  # end of waypoint i's name in its page's names
+        # everything allocated here, before the parse, so its garbage cannot split the heap
+        fb = 8 if _FLOAT_CODE == "d" else 4
+        z = bytearray(4 * _PAGE)
+        self.lat_e7 = _Paged("i", 4, n_max, z)
+        self.lon_e7 = _Paged("i", 4, n_max, z)
+        self.start_m = _Paged(_FLOAT_CODE, fb, n_max, z if fb == 4 else bytearray(fb * _PAGE))
+        z = bytearray(2 * _PAGE)
+        self.speed_mmps = _Paged("H", 2, n_max, z)  # mm/s (at most 8000)
+        self.radius_cm = _Paged("H", 2, n_max, z)  # 0: none
+        self.line_no = _Paged("H", 2, n_max, z)
+        self.name_end = _Paged("H", 2, n_max, z)  # end of waypoint i's name in its page's names
+        z = None
         self._names = [bytearray(k) for k in name_bytes]
         self._names_len = 0
-        self.start_m = None  # track distance to each waypoint (floats), set by finish()
+        # start_m: track distance to each waypoint (floats), filled by finish()
         self.length_m = 0.0
         self._cache_i = [-1] * _LEG_CACHE
         self._cache_leg = [None] * _LEG_CACHE
@@ -169,7 +180,6 @@ class Track:
     def finish(self):
         """Track distances of the waypoints; the sequence views."""
         n = self.n
-        self.start_m = _Paged(_FLOAT_CODE, 8 if _FLOAT_CODE == "d" else 4, n)
         s = 0.0
         for i in range(n - 1):
             s += self.leg_length_m(i)
