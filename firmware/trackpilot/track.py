@@ -1,17 +1,24 @@
-"""Tracks: the waypoint CSV format, its parser and validation, and the precomputed legs.
+"""Tracks: the waypoint CSV format, its parser and validation, and the legs derived on demand.
 
-A track is a list of waypoints (lat/lon as ints in 1e-7 deg, parsed from the decimal text
+A track is a sequence of waypoints (lat/lon as ints in 1e-7 deg, parsed from the decimal text
 without a float, and a speed); leg i runs from waypoint i to waypoint i+1 and is sailed at
 waypoint i's speed. The format is documented in tracks/README.md. A file that does not parse
 raises TrackError(line_no, message) and never yields a Track, so the caller keeps the active
 one (parse into a new object, swap only on success).
 
+Compact for the ESP32's ~110 KB heap: the file is read line by line twice (first to count the
+waypoints, refusing more than MAX_WAYPOINTS before anything is allocated for them, then into
+integer arrays sized for them, in pages of 128 so no large block is needed); about 25-31 B per
+waypoint in all (was ~550 B as Waypoint/Leg objects and boxed floats). A leg is computed from its
+two waypoints when asked for; the last few are cached.
+
 Usage:
     from trackpilot import track
-    trk = track.parse_track_csv(open("tracks/middelburg_loop.csv").read())
+    trk, track_id = track.load_file("tracks/middelburg_loop.csv")    # or parse_track_csv(text)
     for w in track.validate(trk, {"turn_radius_m": 9.0}):
         print(w)
-    leg = trk.legs[0]   # leg.length_m, leg.bearing_deg, leg.turn_deg, leg.speed_mps
+    leg = trk.leg(0)   # leg.length_m, leg.bearing_deg, leg.turn_deg, leg.speed_mps, leg.start_m
+    trk.waypoints[3].name, trk.legs[2].turn_deg, len(trk.waypoints)    # sequence views
 """
 import math
 from array import array
