@@ -106,7 +106,8 @@ def crc24q(buf, a, b):
     t = _CRC24Q
     c = 0
     for i in range(a, b):
-        c = ((c << 8) & 0xFFFFFF) ^ t[(c >> 16) ^ buf[i]]
+        # mask before the shift: (c << 8) would pass 2**30 (a heap-allocated long int on the ESP32)
+        c = ((c & 0xFFFF) << 8) ^ t[(c >> 16) ^ buf[i]]
     return c
 
 
@@ -512,7 +513,7 @@ class GnssParser:
             while i < n and left:
                 c = data[i]
                 if pos < total - 3:
-                    crc = ((crc << 8) & 0xFFFFFF) ^ t[(crc >> 16) ^ c]
+                    crc = ((crc & 0xFFFF) << 8) ^ t[(crc >> 16) ^ c]  # see crc24q
                 else:
                     rx = (rx << 8) | c
                 pos += 1

@@ -66,15 +66,22 @@ class Prng:
     instance from os.urandom in the wiring."""
 
     def __init__(self, seed=1):
-        self.s = (seed & 0xFFFFFFFF) or 0x2545F491
+        s = (seed & 0xFFFFFFFF) or 0x2545F491
+        # the 32-bit state as two 16-bit halves: 32-bit values are long ints (heap) on the ESP32
+        self.hi = s >> 16
+        self.lo = s & 0xFFFF
 
     def randint(self, lo, hi):
-        s = self.s
-        s ^= (s << 13) & 0xFFFFFFFF
-        s ^= s >> 17
-        s ^= (s << 5) & 0xFFFFFFFF
-        self.s = s
-        return lo + (s >> 8) % (hi - lo + 1)
+        sh = self.hi
+        sl = self.lo
+        sh ^= ((sh << 13) | (sl >> 3)) & 0xFFFF  # s ^= s << 13
+        sl ^= (sl << 13) & 0xFFFF
+        sl ^= sh >> 1  # s ^= s >> 17
+        sh ^= ((sh << 5) | (sl >> 11)) & 0xFFFF  # s ^= s << 5
+        sl ^= (sl << 5) & 0xFFFF
+        self.hi = sh
+        self.lo = sl
+        return lo + ((sh << 8) | (sl >> 8)) % (hi - lo + 1)
 
 
 class StLink:
