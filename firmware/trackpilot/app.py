@@ -751,6 +751,7 @@ class App:
                 self.mm.gnss_quality(t, False, "GNSS stale (no epoch for %d ms)" % self.gnss_stale_ms)
                 self.drain_events()
                 self.apply_pilot(t)
+            self.watch_ntrip()
             dead = self.dead_tasks(t)
             if dead:
                 self.event("FAULT", "task not alive: %s; watchdog not fed" % ",".join(dead))
@@ -771,6 +772,19 @@ class App:
                 if live > self.peak_heap:
                     self.peak_heap = live
             await asyncio.sleep_ms(self.grid_ms(200))
+
+    def start_ntrip(self):
+        """RTK corrections: caster -> GNSS UART (Wi-Fi is brought up by the wiring)."""
+        self.ntrip_task = asyncio.create_task(ntrip.run_client(
+            self.cfg["ntrip"], self.w.gnss_uart.write, self.clock, gga=self.gga_bytes, events=self.event))
+
+    def watch_ntrip(self):
+        """The NTRIP client never ends by itself; if it did (a bug), log it and start it again."""
+        task = getattr(self, "ntrip_task", None)
+        if task is not None and task.done() and not self.stop_event.is_set():
+            self.ntrip_restarts += 1
+            self.event("FAULT", "NTRIP task ended (restart %d)" % self.ntrip_restarts)
+            self.start_ntrip()
 
     def dead_tasks(self, t):
         # input-driven tasks only beat when bytes arrive; they are checked against their data
@@ -803,10 +817,10 @@ class App:
             self.task_supervisor(),
         ):
             asyncio.create_task(coro)
+        self.ntrip_task = None
+        self.ntrip_restarts = 0
         if self.cfg["ntrip"]["enabled"]:
-            # RTK corrections: caster -> GNSS UART (Wi-Fi is brought up by the wiring)
-            asyncio.create_task(ntrip.run_client(self.cfg["ntrip"], self.w.gnss_uart.write, self.clock,
-                                                 gga=self.gga_bytes, events=self.event))
+            self.start_ntrip()
         await self.stop_event.wait()
         self.event("STOP", "application stopped")
         self.log.close()
