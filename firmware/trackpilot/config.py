@@ -99,7 +99,10 @@ SCHEMA = {
     "log": {
         "dir": ("/log", "s", None, None),
         "flush_ms": (1000, "i", 100, 10000),
-        "max_file_bytes": (1048576, "i", 4096, 16777216),
+        # retention budget (docs/LOG_FORMAT.md): parts of max_file_bytes; older sessions are
+        # deleted, oldest first, only when less than min_free_bytes (at most 1/8 of the
+        # filesystem) is free
+        "max_file_bytes": (262144, "i", 4096, 16777216),
         "min_free_bytes": (262144, "i", 0, 16777216),
     },
     "ntrip": {
