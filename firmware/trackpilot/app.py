@@ -57,6 +57,7 @@ class App:
         self.pilot = st2000.St2000.from_config(self.stlink.send, pcfg)
         self.pilot.odd_rule = odd
         self.stlink.on_datagram = self.pilot.on_datagram
+        self.stlink.on_sent = self.pilot.on_sent
         self.motor = motor.MotorLink.from_config(cfg["motor"])
         self.alarm_reason = ""
         self._pilot_action = None
@@ -73,6 +74,14 @@ class App:
         )
         self.reset_cause = reset_cause
         self.cfg_problems = list(cfg_problems)
+        from trackpilot.config import rejected
+
+        if rejected(self.cfg_problems):
+            # a person must know the boat runs on other settings than the file says: ENGAGE is
+            # refused until they acknowledge (ACK) or the file is fixed (preconditions)
+            fallback = "the last good configuration" if any(
+                "last good" in p for p in self.cfg_problems) else "the built-in defaults"
+            self.mm.raise_alarm(M.AL_CONFIG, "config file rejected, running on %s: ACK to accept" % fallback)
         self.last_epoch_ms = None
         self.epochs = 0
         self.rpm_cmd = 0
@@ -205,6 +214,8 @@ class App:
             self.mm.pilot_hang(t, text)
         elif kind == "RECOVERED":
             self.mm.pilot_recovered(t)
+        elif kind == "OWN_AUTO_UNDONE":
+            self.mm.raise_alarm(M.AL_TAKEOVER, text)  # sounds again: our key had undone theirs
         elif kind in ("UNRECOVERABLE", "ENGAGE_FAILED"):
             if self.mm.mode == M.AUTO:
                 self.mm.pilot_lost(t, text)
@@ -242,6 +253,8 @@ class App:
     # ------------------------------------------------------------------ the person's commands
     def preconditions(self, t_ms):
         """The first engage precondition that fails, or None."""
+        if self.mm.alarms & M.AL_CONFIG and not self.mm.acked & M.AL_CONFIG:
+            return "config file rejected: press ACK to sail on the fallback settings, or fix the file"
         if self.track is None:
             return "no valid track loaded"
         fix = self.fix
@@ -371,18 +384,22 @@ class App:
     def apply_pilot(self, t_ms):
         """Turn the mode machine's pilot decision into driver commands, once per change."""
         want = self.mm.pilot
-        if want == self._pilot_action:
+        key = want * 8 + self.mm.mode  # AUTO(degraded) -> ALARM keeps PILOT_HOLD: still a change
+        if key == self._pilot_action:
             return
-        self._pilot_action = want
+        self._pilot_action = key
         if want == M.PILOT_STANDBY:
             self.pilot.standby(t_ms)
         elif want == M.PILOT_STEER:
             if not self.pilot.commanding():
                 self.pilot.engage(t_ms)
         elif want == M.PILOT_LEAVE:
-            if self.pilot.commanding():
+            if self.pilot.watching():
                 self.pilot.let_go(t_ms, "mode %s" % self.mm.state_text())
-        # PILOT_HOLD: the pilot keeps its course in Auto; no new steps are sent.
+        elif want == M.PILOT_HOLD and self.mm.mode != M.AUTO:
+            # ALARM: the pilot keeps its course in Auto; the driver sends nothing on its own
+            self.pilot.hold(t_ms, "mode %s" % self.mm.state_text())
+        # PILOT_HOLD in AUTO(degraded/hold): no new steps; hang recovery stays allowed (AUTO).
         # PILOT_RECOVER: the driver runs Standby -> Auto -> re-step itself (st2000.py).
         self._st_wake.set()
 
@@ -734,6 +751,7 @@ class App:
                 self.mm.gnss_quality(t, False, "GNSS stale (no epoch for %d ms)" % self.gnss_stale_ms)
                 self.drain_events()
                 self.apply_pilot(t)
+            self.watch_ntrip()
             dead = self.dead_tasks(t)
             if dead:
                 self.event("FAULT", "task not alive: %s; watchdog not fed" % ",".join(dead))
@@ -754,6 +772,19 @@ class App:
                 if live > self.peak_heap:
                     self.peak_heap = live
             await asyncio.sleep_ms(self.grid_ms(200))
+
+    def start_ntrip(self):
+        """RTK corrections: caster -> GNSS UART (Wi-Fi is brought up by the wiring)."""
+        self.ntrip_task = asyncio.create_task(ntrip.run_client(
+            self.cfg["ntrip"], self.w.gnss_uart.write, self.clock, gga=self.gga_bytes, events=self.event))
+
+    def watch_ntrip(self):
+        """The NTRIP client never ends by itself; if it did (a bug), log it and start it again."""
+        task = getattr(self, "ntrip_task", None)
+        if task is not None and task.done() and not self.stop_event.is_set():
+            self.ntrip_restarts += 1
+            self.event("FAULT", "NTRIP task ended (restart %d)" % self.ntrip_restarts)
+            self.start_ntrip()
 
     def dead_tasks(self, t):
         # input-driven tasks only beat when bytes arrive; they are checked against their data
@@ -786,10 +817,10 @@ class App:
             self.task_supervisor(),
         ):
             asyncio.create_task(coro)
+        self.ntrip_task = None
+        self.ntrip_restarts = 0
         if self.cfg["ntrip"]["enabled"]:
-            # RTK corrections: caster -> GNSS UART (Wi-Fi is brought up by the wiring)
-            asyncio.create_task(ntrip.run_client(self.cfg["ntrip"], self.w.gnss_uart.write, self.clock,
-                                                 gga=self.gga_bytes, events=self.event))
+            self.start_ntrip()
         await self.stop_event.wait()
         self.event("STOP", "application stopped")
         self.log.close()

@@ -907,7 +907,9 @@ class GnssParser:
     def _apply_hppos(self, r):
         if not self._join(r.itow_ms, -1):
             return
-        if not r.flags & 1:  # invalidLlh clear
+        # invalidLlh clear, and the high-precision parts in their range (-99..99, 1e-9 deg):
+        # anything else is a corrupt frame that would move the position by up to 1.3 e-7 deg
+        if not r.flags & 1 and -99 <= r.lat_hp <= 99 and -99 <= r.lon_hp <= 99:
             self._set_pos(_P_HP, r.lat_e7, r.lon_e7, r.lat_hp, r.lon_hp, r.height_mm)
             if _P_HP >= self._p_acc:
                 self._p_acc = _P_HP

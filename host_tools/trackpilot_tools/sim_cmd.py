@@ -31,6 +31,9 @@ def add_parser(p):
     p.add_argument("--params", help="JSON file merged over the simulator's boat_params.json")
     p.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
                    help="override one simulator parameter, e.g. pilot.deadband_deg=3")
+    p.add_argument("--fw-config", metavar="FILE",
+                   help="the firmware's config.json as-is, not checked here (to see how the firmware "
+                        "treats a bad file); replaces --fw-set")
     p.add_argument("--fw-set", action="append", default=[], metavar="SECTION.KEY=VALUE",
                    help="override one firmware configuration setting, e.g. guidance.seed_k_y_deg_per_m=2")
     p.add_argument("--start-offset-m", type=float, help="start this far to starboard of the first leg")
@@ -70,6 +73,7 @@ def run(args):
                   realtime_speed=args.realtime_speed,
                   udp_out=(10111, 10110) if (args.udp_out or args.realtime) else None,
                   fw_config=pm.parse_set(args.fw_set),
+                  fw_config_bytes=Path(args.fw_config).read_bytes() if args.fw_config else None,
                   reengage_s=args.reengage_s, quiet=not args.verbose)
     res = run_.run()
     meta = {"track": str(args.track), "law": args.law, "scenario": args.scenario, "seed": args.seed,

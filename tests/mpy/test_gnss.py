@@ -339,3 +339,17 @@ def test_gpsd_comment_lines():
     fix, gp = _parser()
     _feed(gp, b"# x $GPHDT,1.0,T*00\n")
     t.eq(gp.stats.comments, 0)
+
+
+def test_hppos_high_precision_parts_outside_99_are_rejected():
+    """Issue 14.13: lat_hp/lon_hp are -99..99 (1e-9 deg); a frame outside is not taken."""
+    for lat_hp, lon_hp in ((120, 0), (0, -100), (-128, 127)):
+        fix, gp = _parser()
+        data = relpos(1000) + hppos(1000, lat_e7=514900777, lat_hp=lat_hp, lon_hp=lon_hp) + pvt(1000)
+        t.eq(_feed(gp, data), 1)
+        t.true(fix.pos_valid)
+        t.true(fix.lat_e7 != 514900777, "HPPOSLLH with lat_hp %d lon_hp %d taken" % (lat_hp, lon_hp))
+        t.eq((fix.lat_hp, fix.lon_hp), (0, 0))
+    fix, gp = _parser()
+    t.eq(_feed(gp, relpos(1000) + hppos(1000, lat_e7=514900777, lat_hp=99, lon_hp=-99) + pvt(1000)), 1)
+    t.eq((fix.lat_e7, fix.lat_hp, fix.lon_hp), (514900777, 99, -99))

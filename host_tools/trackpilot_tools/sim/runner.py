@@ -57,7 +57,8 @@ class SimRun:
     def __init__(self, track_path, out_dir, seed=1, law="los", scenario="calm", faults=(),
                  params=None, param_file=None, overrides=None, duration_s=None, realtime=False,
                  realtime_speed=1.0, fw_config=None, reengage_s=0.0, quiet=True,
-                 stop_after_finish_s=5.0, max_xte_stop_m=80.0, fw_script=None, udp_out=None):
+                 stop_after_finish_s=5.0, max_xte_stop_m=80.0, fw_script=None, udp_out=None,
+                 fw_config_bytes=None):
         self.track_path = Path(track_path)
         self.udp_out = None
         if udp_out:  # (status port, NMEA port) on 127.0.0.1, as the boat would broadcast them
@@ -86,6 +87,9 @@ class SimRun:
         self.p = params
         self.faults = [scenarios.parse_fault(f) if isinstance(f, str) else f for f in faults]
         self.fw_config_extra = fw_config or {}
+        # the firmware's config.json exactly as given, not validated here (bad-config tests: the
+        # firmware must reject it itself); the simulated motor then uses the defaults
+        self.fw_config_bytes = fw_config_bytes
 
         _fw_import()
         from trackpilot.track import parse_track_csv
@@ -306,6 +310,7 @@ class SimRun:
         elif name == "motor_link_loss":
             self.motor.link_lost = on
         elif name == "estop":
+            self.estop_on = on
             self.send_input(t_ms, "estop=%d" % (1 if on else 0))
         elif name == "reset":
             self._reset_pending = True
@@ -313,6 +318,8 @@ class SimRun:
             self.send_input(t_ms, "button=STANDBY")
         elif name == "button_engage":
             self.send_input(t_ms, "button=ENGAGE")
+        elif name == "button_ack":
+            self.send_input(t_ms, "button=ACK")
         if on and dur_s:
             self.sched.at(t_us + int(dur_s * 1e6), self._fault, name, False, None)
 
@@ -420,13 +427,21 @@ class SimRun:
         if self.data_dir.exists():
             shutil.rmtree(self.data_dir)
         self.data_dir.mkdir()
-        cfg_partial, cfg_full = self._fw_config()
-        (self.out / "config.json").write_text(json.dumps(cfg_partial, indent=2))
+        if self.fw_config_bytes is not None:
+            _fw_import()
+            from trackpilot import config as fwconfig
+
+            cfg_full = fwconfig.defaults()
+            (self.out / "config.json").write_bytes(self.fw_config_bytes)
+        else:
+            cfg_partial, cfg_full = self._fw_config()
+            (self.out / "config.json").write_text(json.dumps(cfg_partial, indent=2))
         (self.out / "sim_params.json").write_text(json.dumps(self.p, indent=2))
         from .motor_dev import MotorDevice
 
         self.motor = MotorDevice(cfg_full["motor"], component_rng(self.seed, "motor"))
         self._reset_pending = False
+        self.estop_on = False  # the E-stop input level, as the board's pin holds it
         self.pilot.silent = False
 
         self.sched.at(0, self._gnss_epoch)
@@ -501,6 +516,8 @@ class SimRun:
         self.deliv = []
         self.mode = None
         self._start_fw(t_ms, "soft")
+        if self.estop_on:  # the pin is still held: the new process reads it like the board would
+            self.send_input(t_ms, "estop=1")
 
     # ------------------------------------------------------------------ results
     def _write_truth(self):

@@ -39,6 +39,7 @@ FAULTS = {
     "st_other_talker": (True, "another instrument sends wind datagrams without waiting for idle (collisions)"),
     "motor_link_loss": (True, "the motor controller stops replying and ignores setpoints"),
     "estop": (True, "E-stop input active"),
+    "button_ack": (False, "a person presses ACK on the HMI"),
     "reset": (False, "the firmware restarts (process restarted with the same data dir)"),
     "button_standby": (False, "STANDBY pressed on the HMI"),
     "button_engage": (False, "ENGAGE pressed on the HMI"),
