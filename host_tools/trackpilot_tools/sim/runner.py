@@ -377,6 +377,10 @@ class SimRun:
             if dev == P.DEV_SEATALK:
                 pairs = [(data[i], chr(data[i + 1])) for i in range(0, len(data) - 1, 2)]
                 self.bus.write_fw(t_ms * 1000, pairs)
+            elif dev == P.DEV_GNSS:  # receiver configuration (CFG-VALSET)
+                got = self.f9p.on_rx(t_ms, data)
+                if got:
+                    self.deliver(P.DEV_GNSS, got[0] * 1000, got[1])
             elif dev == P.DEV_MOTOR:
                 got = self.motor.feed(t_ms, data)
                 if got:
