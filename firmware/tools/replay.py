@@ -18,7 +18,7 @@ import sys
 
 from trackpilot import config, control, guidance, logfmt, progress
 from trackpilot.fix import Fix
-from trackpilot.track import Track
+from trackpilot.track import from_waypoints
 
 _RTK = {"single": 1, "float": 2, "fixed": 3}
 
@@ -110,7 +110,7 @@ def main():
         for r in logfmt.iter_records(data):
             t = r.type
             if t == "track":
-                prog = progress.Progress(Track(r.waypoints), rule)
+                prog = progress.Progress(from_waypoints(r.waypoints), rule)
                 law.reset()
             elif t == "damage":
                 damage += 1

@@ -20,7 +20,7 @@ import gc
 from trackpilot import VERSION
 from trackpilot import modes as M
 from trackpilot import control, logfmt, ntrip, seatalk
-from trackpilot.compat import ticks_diff, wrap180
+from trackpilot.compat import ticks_add, ticks_diff, wrap180
 from trackpilot.fix import RTK_FIXED, RTK_FLOAT, RTK_NAMES, RTK_SINGLE, Fix
 
 try:
@@ -31,6 +31,12 @@ except ImportError:  # pragma: no cover
 _RTK_BY_NAME = {"single": RTK_SINGLE, "float": RTK_FLOAT, "fixed": RTK_FIXED}
 
 TASKS = ("gnss", "seatalk_rx", "seatalk_tx", "pilot", "motor", "wind", "inputs", "logger", "telemetry")
+
+
+def _error_text(e):
+    """An exception as one line for an event: the message, else the exception's type."""
+    text = str(e)
+    return text if text else type(e).__name__
 
 
 class App:
@@ -122,29 +128,39 @@ class App:
         self.prof_us = []
         self.prof_alloc = []
         self._prof_acc = [0, 0]
+        self.on_stable = None  # called once after bootguard.STABLE_MS with every task alive
+        self._stable_due_ms = None
 
     # ------------------------------------------------------------------ track and state
     def load_track(self, path):
-        """Validate and activate a track file; only in STANDBY; a bad file never replaces the
-        active track. Returns (ok, message)."""
+        """Validate and activate a track file; only in STANDBY. Never raises: a bad or too large
+        file, or one that does not fit in memory, is refused with a TRACK event and the active
+        track stays. Returns (ok, message)."""
         from trackpilot import progress, track
 
         if self.mm.mode == M.AUTO:
             return False, "track not changed: only in STANDBY"
+        new = None
         try:
-            with open(path) as f:
-                text = f.read()
-            new = track.parse_track_csv(text)
+            new, new_id = track.load_file(path)
             warnings = track.validate(new, self.cfg["boat"])
-        except (OSError, ValueError) as e:
-            msg = "track %s rejected: %s" % (path, e)
+            # the seed baseline uses the plain seed leg-advance rule (BOAT_AND_BENCHMARK.md)
+            rule = progress.RULE_SEED if self.cfg["guidance"]["law"] == "seed" else progress.RULE_ROBUST
+            prog = progress.Progress(new, rule)
+        except MemoryError:
+            new = None
+            gc.collect()
+            msg = "track %s rejected: not enough memory to load it (%d B free); the previous track stays" % (
+                path, gc.mem_free())
+            self.event("TRACK", msg)
+            return False, msg
+        except Exception as e:  # a file error, a bad track, anything: the app goes on without it
+            msg = "track %s rejected: %s" % (path, _error_text(e))
             self.event("TRACK", msg)
             return False, msg
         self.track = new
-        # the seed baseline uses the plain seed leg-advance rule (BOAT_AND_BENCHMARK.md)
-        rule = progress.RULE_SEED if self.cfg["guidance"]["law"] == "seed" else progress.RULE_ROBUST
-        self.progress = progress.Progress(new, rule)
-        self.track_id = track.track_id(text)
+        self.progress = prog
+        self.track_id = new_id
         self.event("TRACK", "loaded %s: %d waypoints, id %s" % (path, len(new.waypoints), self.track_id))
         for w in warnings:
             self.event("TRACK", "warning: " + w)
@@ -862,6 +878,7 @@ class App:
                 self.event("FAULT", "task not alive: %s; watchdog not fed" % ",".join(dead))
             else:
                 self.w.feed_watchdog()
+                self._check_stable(t)
             if ticks_diff(t, self._last_gc_ms) >= 1000:
                 # collect once a second between control epochs: short, predictable pauses instead
                 # of one long one whenever the heap runs full; the live heap after it is the
@@ -890,6 +907,20 @@ class App:
             self.ntrip_restarts += 1
             self.event("FAULT", "NTRIP task ended (restart %d)" % self.ntrip_restarts)
             self.start_ntrip()
+
+    def _check_stable(self, t):
+        """Tell the boot-loop guard once the app has run stably (bootguard.py)."""
+        if self.on_stable is None:
+            return
+        if self._stable_due_ms is None:
+            from trackpilot.bootguard import STABLE_MS
+
+            self._stable_due_ms = ticks_add(t, STABLE_MS)
+        elif ticks_diff(t, self._stable_due_ms) >= 0:
+            cb = self.on_stable
+            self.on_stable = None
+            cb()
+            self.event("BOOT", "running stably: boot-loop count cleared")
 
     def dead_tasks(self, t):
         # input-driven tasks only beat when bytes arrive; they are checked against their data

@@ -145,7 +145,7 @@ SCHEMA = {
         "led_auto": (39, "i", -1, 48),
         "led_alarm": (40, "i", -1, 48),
         "buzzer": (41, "i", -1, 48),
-        "skip_app_pin": (0, "i", -1, 48),
+        "skip_app_pin": (0, "i", -1, 48),  # not read any more: main.py's fixed pin (docs/WIRING.md)
         "watchdog_ms": (8000, "i", 1000, 60000),
     },
     "hmi": {

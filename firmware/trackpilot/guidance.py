@@ -25,6 +25,7 @@ from trackpilot.compat import wrap180, wrap360
 
 _RAD = math.pi / 180.0
 _HALF_PI = math.pi * 0.5
+_CORNER_CACHE = 16  # planned corners kept (direct-mapped by waypoint index)
 
 
 class GuidanceOut:
@@ -180,74 +181,89 @@ class LosLaw:
         self.out.valid = False
         self.out.clipped = False
 
-    # ---- corner planning (once per track) ----
+    # ---- corner planning (per corner, on demand, a few cached) ----
     def plan(self, trk):
-        """Corner radii and tangent lengths for a track (index = waypoint)."""
-        legs = trk.legs
-        n = len(trk.waypoints)
+        """Start planning the corners of a track: each corner's radius and tangent length is
+        derived when first needed from the legs beside it (no per-waypoint lists)."""
         self._track = trk
-        self._r = [0.0] * n
-        self._t = [0.0] * n
-        self._s = [0.0] * n
-        self._th = [0.0] * n  # |turn| in rad
-        want = self.round_factor * self.turn_radius_m
-        for k in range(1, n - 1):
-            th = legs[k - 1].turn_deg
-            if abs(th) < 1.0 or abs(th) >= 170.0:
-                continue
-            self._s[k] = 1.0 if th > 0 else -1.0
-            self._th[k] = abs(th) * _RAD
-            self._t[k] = want * math.tan(self._th[k] * 0.5)
-        # shrink corners whose tangents overlap on a leg (both ends share the leg in proportion)
-        scale = [1.0] * n
-        for i in range(len(legs)):
-            need = self._t[i] + self._t[i + 1]
-            if need > legs[i].length_m:
-                f = legs[i].length_m / need
-                scale[i] = min(scale[i], f)
-                scale[i + 1] = min(scale[i + 1], f)
-        for k in range(1, n - 1):
-            if self._th[k] == 0.0:
-                continue
-            t = self._t[k] * scale[k]
-            r = t / math.tan(self._th[k] * 0.5)
-            if r < 0.5 * self.turn_radius_m:  # too tight to plan: follow the legs
-                self._th[k] = 0.0
-                self._s[k] = 0.0
-                t = r = 0.0
-            self._t[k] = t
-            self._r[k] = r
-        self._straight = [legs[i].length_m - self._t[i] - self._t[i + 1] for i in range(len(legs))]
+        self._n = len(trk.waypoints)
+        self._want = self.round_factor * self.turn_radius_m
+        self._cache_k = [-1] * _CORNER_CACHE
+        self._cache_c = [None] * _CORNER_CACHE
+
+    def _raw(self, k):
+        """(sign, |turn| rad, unshrunk tangent m) of the corner at waypoint k."""
+        if k < 1 or k >= self._n - 1:
+            return 0.0, 0.0, 0.0
+        th = self._track.leg(k - 1).turn_deg
+        if abs(th) < 1.0 or abs(th) >= 170.0:
+            return 0.0, 0.0, 0.0
+        th_rad = abs(th) * _RAD
+        return (1.0 if th > 0 else -1.0), th_rad, self._want * math.tan(th_rad * 0.5)
+
+    def _corner(self, k):
+        """(sign, |turn| rad, tangent m, radius m) planned at waypoint k; corners whose tangents
+        overlap on a leg are shrunk (both ends share the leg in proportion)."""
+        slot = k % _CORNER_CACHE
+        if self._cache_k[slot] == k:
+            return self._cache_c[slot]
+        s, th, t = self._raw(k)
+        c = (0.0, 0.0, 0.0, 0.0)
+        if th != 0.0:
+            scale = 1.0
+            for i in (k - 1, k):  # the legs ending and starting at waypoint k
+                need = self._raw(i)[2] + self._raw(i + 1)[2]
+                length = self._track.leg(i).length_m
+                if need > length:
+                    scale = min(scale, length / need)
+            t = t * scale
+            r = t / math.tan(th * 0.5)
+            if r >= 0.5 * self.turn_radius_m:  # else too tight to plan: follow the legs
+                c = (s, th, t, r)
+        self._cache_k[slot] = k
+        self._cache_c[slot] = c
+        return c
+
+    def _t(self, k):
+        return self._corner(k)[2]
+
+    def _r(self, k):
+        return self._corner(k)[3]
+
+    def _straight(self, i):
+        """Straight part of leg i between its corners' tangent points."""
+        return self._track.leg(i).length_m - self._t(i) - self._t(i + 1)
 
     def corner_radius_m(self, k):
         """Planned radius at waypoint k (0: not rounded)."""
-        return self._r[k]
+        return self._r(k)
 
     def _preview_rad(self, kind, idx, rem, p):
         """Signed turn (rad) of the path over the next p metres from a point on an arc (kind 0,
         corner idx, rem rad left) or on a straight (kind 1, leg idx, rem m left)."""
         total = 0.0
-        n_legs = len(self._straight)
+        n_legs = self._n - 1
         for _ in range(6):
             if p <= 0.0:
                 break
             if kind == 0:
-                r = self._r[idx]
+                c = self._corner(idx)
+                r = c[3]
                 if r > 0.0:
                     take = min(p, rem * r)
-                    total += self._s[idx] * take / r
+                    total += c[0] * take / r
                     p -= take
                 if idx >= n_legs:
                     break
                 kind = 1
-                rem = self._straight[idx]
+                rem = self._straight(idx)
             else:
                 p -= min(p, rem)
                 idx += 1
                 if idx >= n_legs:
                     break
                 kind = 0
-                rem = self._th[idx]
+                rem = self._corner(idx)[1]
         return total
 
     @staticmethod
@@ -262,34 +278,32 @@ class LosLaw:
         x = prog.xte_m
         length = prog.leg_length_m
         k_end = i + 1
-        t_end = self._t[k_end] if k_end < len(self._t) - 1 else 0.0
-        t_start = self._t[i] if i > 0 else 0.0
+        t_end = self._t(k_end) if k_end < self._n - 1 else 0.0
+        t_start = self._t(i) if i > 0 else 0.0
         if t_end > 0.0 and a >= length - t_end:
             k = k_end
-            s = self._s[k]
-            r = self._r[k]
-            th = s * self._th[k]
+            s, th_k, _, r = self._corner(k)
+            th = s * th_k
             dx = a - (length - t_end)
             dy = x - s * r
             tan = wrap180((math.atan2(dy, dx) + s * _HALF_PI) / _RAD) * _RAD
             if s * tan < 0.0:  # before the arc (cannot be, but keep it defined)
-                return 0.0, x, self._preview_rad(0, k, self._th[k], p), 0.0
+                return 0.0, x, self._preview_rad(0, k, th_k, p), 0.0
             if s * tan > s * th:  # past the arc, progress still on this leg: next leg's line
-                return th, self._line_xte(a, x, length, 0.0, th), self._preview_rad(1, k, self._straight[k], p), 0.0
-            rem = self._th[k] - s * tan
+                return th, self._line_xte(a, x, length, 0.0, th), self._preview_rad(1, k, self._straight(k), p), 0.0
+            rem = th_k - s * tan
             return tan, s * (r - math.sqrt(dx * dx + dy * dy)), self._preview_rad(0, k, rem, p), r
         if t_start > 0.0 and a <= t_start:
             k = i
-            s = self._s[k]
-            r = self._r[k]
-            th = s * self._th[k]
+            s, th_k, _, r = self._corner(k)
+            th = s * th_k
             dx = a - t_start
             dy = x - s * r
             tan = wrap180((math.atan2(dy, dx) + s * _HALF_PI) / _RAD) * _RAD
             if s * tan > 0.0:  # past the arc's end: the straight of this leg
-                return 0.0, x, self._preview_rad(1, i, t_start + self._straight[i] - a, p), 0.0
+                return 0.0, x, self._preview_rad(1, i, t_start + self._straight(i) - a, p), 0.0
             if s * tan < -s * th:  # before the arc: the previous leg's line
-                return -th, self._line_xte(a, x, 0.0, 0.0, -th), self._preview_rad(0, k, self._th[k], p), 0.0
+                return -th, self._line_xte(a, x, 0.0, 0.0, -th), self._preview_rad(0, k, th_k, p), 0.0
             return tan, s * (r - math.sqrt(dx * dx + dy * dy)), self._preview_rad(0, k, -s * tan, p), r
         rem = length - t_end - a
         if rem < 0.0:
@@ -301,7 +315,7 @@ class LosLaw:
         if self._track is not prog.track:
             self.plan(prog.track)
         out.finished = prog.finished
-        leg = prog.track.legs[prog.leg]
+        leg = prog.track.leg(prog.leg)
         if fix.vel_valid:
             u = fix.sog_mps
         else:
@@ -352,11 +366,11 @@ class LosLaw:
         v = leg.speed_mps
         nxt = prog.next_leg()
         if nxt is None:
-            if prog.along_m < self._t[prog.leg]:
-                v = self._turn_cap(v, self._r[prog.leg])
+            if prog.along_m < self._t(prog.leg):
+                v = self._turn_cap(v, self._r(prog.leg))
             return v
         k = prog.leg + 1
-        t_end = self._t[k]
+        t_end = self._t(k)
         to_turn = prog.remain_m - t_end  # distance to where the corner begins
         ramp_m = self.speed_tc_s * v
         v_next = nxt.speed_mps
@@ -364,9 +378,9 @@ class LosLaw:
             f = to_turn / ramp_m if to_turn > 0.0 else 0.0
             v = v_next + (v - v_next) * f
         if to_turn < ramp_m:
-            v = self._turn_cap(v, self._r[k])
-        if prog.along_m < self._t[prog.leg]:  # still on the corner behind (exit half of its arc)
-            v = self._turn_cap(v, self._r[prog.leg])
+            v = self._turn_cap(v, self._r(k))
+        if prog.along_m < self._t(prog.leg):  # still on the corner behind (exit half of its arc)
+            v = self._turn_cap(v, self._r(prog.leg))
         return v
 
     def _turn_cap(self, v, r):

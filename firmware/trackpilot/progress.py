@@ -52,10 +52,7 @@ class Progress:
             setattr(self, k, params[k])
         self.track = track
         self.rule = rule
-        self.n_legs = len(track.legs)
-        # unit vectors of the legs in their own frames (east, north)
-        self._ux = [math.sin(math.radians(leg.bearing_deg)) for leg in track.legs]
-        self._uy = [math.cos(math.radians(leg.bearing_deg)) for leg in track.legs]
+        self.n_legs = len(track.legs)  # legs come from track.leg(i), derived and cached there
         self.restart()
 
     def restart(self):
@@ -66,8 +63,9 @@ class Progress:
         self.to_wp_m = 0.0  # straight-line distance to the leg's end waypoint
         self.remain_m = 0.0  # leg length - along
         self.track_m = 0.0  # distance along the whole track (leg start + along)
-        self.leg_length_m = self.track.legs[0].length_m
-        self.leg_bearing_deg = self.track.legs[0].bearing_deg
+        leg0 = self.track.leg(0)
+        self.leg_length_m = leg0.length_m
+        self.leg_bearing_deg = leg0.bearing_deg
         self.finished = False
         self.finish_reason = None
         self.valid = False  # True once update() has placed the boat
@@ -78,13 +76,14 @@ class Progress:
 
     def _pos(self, i, lat_e7, lon_e7, lat_hp, lon_hp):
         """(along_m, xte_m, distance to the leg's segment) of the boat on leg i."""
-        w = self.track.waypoints[i]
-        e, n = geo.offset_m(w.lat_e7, w.lon_e7, lat_e7, lon_e7, 0, 0, lat_hp, lon_hp)
-        ux = self._ux[i]
-        uy = self._uy[i]
+        trk = self.track
+        e, n = geo.offset_m(trk.lat_e7[i], trk.lon_e7[i], lat_e7, lon_e7, 0, 0, lat_hp, lon_hp)
+        leg = trk.leg(i)
+        ux = leg.ux
+        uy = leg.uy
         a = e * ux + n * uy
         x = e * uy - n * ux  # starboard normal of (ux, uy) is (uy, -ux)
-        length = self.track.legs[i].length_m
+        length = leg.length_m
         if a < 0.0:
             d = math.sqrt(a * a + x * x)
         elif a > length:
@@ -103,15 +102,15 @@ class Progress:
 
     def _join(self, lat_e7, lon_e7, lat_hp, lon_hp):
         window = self.join_window_m if self._join_window is None else self._join_window
-        legs = self.track.legs
+        starts = self.track.start_m
         i0 = self.leg
-        limit_m = legs[i0].start_m + window
+        limit_m = starts[i0] + window
         best = -1
         best_d = 0.0
         j = i0
-        while j < self.n_legs and legs[j].start_m <= limit_m:
+        while j < self.n_legs and starts[j] <= limit_m:
             a, x, d = self._pos(j, lat_e7, lon_e7, lat_hp, lon_hp)
-            if a < legs[j].length_m and (best < 0 or d < best_d):
+            if a < self.track.leg(j).length_m and (best < 0 or d < best_d):
                 best = j
                 best_d = d
             j += 1
@@ -128,9 +127,9 @@ class Progress:
             self._join(lat_e7, lon_e7, lat_hp, lon_hp)
             self._need_join = False
         i = self.leg
-        legs = self.track.legs
+        trk = self.track
         a, x, d = self._pos(i, lat_e7, lon_e7, lat_hp, lon_hp)
-        length = legs[i].length_m
+        length = trk.leg(i).length_m
         if i + 1 < self.n_legs and not self.finished:
             an, xn, dn = self._pos(i + 1, lat_e7, lon_e7, lat_hp, lon_hp)
             advance = False
@@ -144,7 +143,7 @@ class Progress:
             elif dn < d and length - a <= self.advance_window_m:
                 advance = True
             else:
-                r = self.track.waypoints[i + 1].radius_m
+                r = trk.radius_m(i + 1)
                 if r is not None and (length - a) * (length - a) + x * x <= r * r:
                     advance = True
             if advance:
@@ -152,13 +151,13 @@ class Progress:
                 self.leg = i
                 a = an
                 x = xn
-                length = legs[i].length_m
+                length = trk.leg(i).length_m
         self.along_m = a
         self.xte_m = x
         self.remain_m = length - a
         self.to_wp_m = math.sqrt(self.remain_m * self.remain_m + x * x)
         self.leg_length_m = length
-        leg = legs[i]
+        leg = trk.leg(i)
         self.track_m = leg.start_m + a
         # bearing of the leg at the boat's abeam point (geodesic bearing drifts by convergence)
         f = a / length
@@ -168,7 +167,7 @@ class Progress:
             f = 1.0
         self.leg_bearing_deg = wrap360(leg.bearing_deg + f * wrap180(leg.end_bearing_deg - leg.bearing_deg))
         if i == self.n_legs - 1 and not self.finished:
-            r = self.track.waypoints[i + 1].radius_m
+            r = trk.radius_m(i + 1)
             if r is None:
                 r = self.arrival_radius_m
             if self.to_wp_m <= r:
@@ -184,12 +183,12 @@ class Progress:
     def next_leg(self):
         """The next Leg or None on the last leg."""
         if self.leg + 1 < self.n_legs:
-            return self.track.legs[self.leg + 1]
+            return self.track.leg(self.leg + 1)
         return None
 
     def speed_mps(self):
         """The current leg's speed (its start waypoint's)."""
-        return self.track.legs[self.leg].speed_mps
+        return self.track.leg(self.leg).speed_mps
 
     def set_leg(self, i):
         """Put the boat on leg i (restoring saved state, or an explicit choice); the advance

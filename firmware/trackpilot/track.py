@@ -14,6 +14,7 @@ Usage:
     leg = trk.legs[0]   # leg.length_m, leg.bearing_deg, leg.turn_deg, leg.speed_mps
 """
 import math
+from array import array
 
 from trackpilot import geo
 from trackpilot.compat import wrap180
@@ -39,7 +40,17 @@ class TrackError(ValueError):
         self.message = message
 
 
+MAX_WAYPOINTS = 2000  # the firmware's limit (tracks/README.md): about 50 KB of heap at most
+MAX_LINE_BYTES = 512  # a longer line is not a track line (and would cost a large string)
+MAX_LINES = 65535  # line numbers are kept as 16-bit ints
+# Floats as stored: single precision on a float32 build (the ESP32), else double, so a stored
+# value reads back exactly as computed.
+_FLOAT_CODE = "f" if 1.0 + 1e-9 == 1.0 else "d"
+
+
 class Waypoint:
+    """One waypoint, made on demand from the track's arrays (for printing, logging, tests)."""
+
     def __init__(self, lat_e7, lon_e7, speed_mps, name=None, radius_m=None, line_no=0):
         self.lat_e7 = lat_e7
         self.lon_e7 = lon_e7
@@ -55,7 +66,7 @@ class Waypoint:
 
 
 class Leg:
-    """Leg i from waypoint i to i+1, geometry in the frame at waypoint i."""
+    """Leg i from waypoint i to i+1, geometry in the frame at waypoint i (derived on demand)."""
 
     def __init__(self, i, length_m, bearing_deg, end_bearing_deg, speed_mps):
         self.i = i
@@ -65,33 +76,176 @@ class Leg:
         self.turn_deg = 0.0  # turn at waypoint i+1 into the next leg (+ starboard); 0 on the last
         self.speed_mps = speed_mps
         self.start_m = 0.0  # track distance from waypoint 0 to waypoint i
+        rad = math.radians(bearing_deg)
+        self.ux = math.sin(rad)  # unit vector of the leg in its frame (east, north)
+        self.uy = math.cos(rad)
+
+
+class _Seq:
+    """A read-only sequence view (len, index, negative index, slice, iteration) over item(i)."""
+
+    def __init__(self, n, item):
+        self._n = n
+        self._item = item
+
+    def __len__(self):
+        return self._n
+
+    def __getitem__(self, i):
+        if isinstance(i, slice):
+            return [self._item(k) for k in range(self._n)][i]
+        if i < 0:
+            i += self._n
+        if not 0 <= i < self._n:
+            raise IndexError("index out of range")
+        return self._item(i)
+
+    def __iter__(self):
+        for k in range(self._n):
+            yield self._item(k)
+
+
+_LEG_CACHE = 8  # legs kept (direct-mapped by index): the current one and its neighbours
+
+
+_PAGE_SHIFT = 7
+_PAGE = 1 << _PAGE_SHIFT  # waypoints per page: no block larger than 1 KB is ever needed
+
+
+class _Paged:
+    """An int/float array in pages of _PAGE items: loads in a fragmented heap."""
+
+    def __init__(self, code, item_bytes, n):
+        self.pages = [array(code, bytearray(item_bytes * min(_PAGE, n - k))) for k in range(0, n, _PAGE)]
+
+    def __getitem__(self, i):
+        return self.pages[i >> _PAGE_SHIFT][i & (_PAGE - 1)]
+
+    def __setitem__(self, i, v):
+        self.pages[i >> _PAGE_SHIFT][i & (_PAGE - 1)] = v
 
 
 class Track:
-    def __init__(self, waypoints, name=None):
-        self.waypoints = waypoints
+    """The waypoints in preallocated integer arrays (pages of 128 waypoints, about 28 B per
+    waypoint plus its name's bytes); legs derived on demand, a few cached. `waypoints` and
+    `legs` are sequence views."""
+
+    def __init__(self, n_max, name=None, name_bytes=()):
+        """name_bytes: the names' bytes per page (as _survey counts them)."""
         self.name = name
-        self.legs = []
-        start_m = 0.0
-        for i in range(len(waypoints) - 1):
-            a = waypoints[i]
-            b = waypoints[i + 1]
-            d, brg = geo.dist_bearing(a.lat_e7, a.lon_e7, b.lat_e7, b.lon_e7)
-            end_brg = geo.final_bearing_deg(a.lat_e7, a.lon_e7, b.lat_e7, b.lon_e7)
-            leg = Leg(i, d, brg, end_brg, a.speed_mps)
-            leg.start_m = start_m
-            start_m += d
-            self.legs.append(leg)
-        for i in range(len(self.legs) - 1):
-            self.legs[i].turn_deg = wrap180(self.legs[i + 1].bearing_deg - self.legs[i].end_bearing_deg)
-        self.length_m = start_m
+        self.n = 0
+        self.lat_e7 = _Paged("i", 4, n_max)
+        self.lon_e7 = _Paged("i", 4, n_max)
+        self.speed_mmps = _Paged("H", 2, n_max)  # mm/s (at most 8000)
+        self.radius_cm = _Paged("H", 2, n_max)  # 0: none
+        self.line_no = _Paged("H", 2, n_max)
+        self.name_end = _Paged("H", 2, n_max)  # end of waypoint i's name in its page's names
+        self._names = [bytearray(k) for k in name_bytes]
+        self._names_len = 0
+        self.start_m = None  # track distance to each waypoint (floats), set by finish()
+        self.length_m = 0.0
+        self._cache_i = [-1] * _LEG_CACHE
+        self._cache_leg = [None] * _LEG_CACHE
+        self.waypoints = _Seq(0, self.waypoint)
+        self.legs = _Seq(0, self.leg)
+
+    def append(self, lat_e7, lon_e7, speed_mmps, name_b, radius_cm, line_no):
+        i = self.n
+        self.lat_e7[i] = lat_e7
+        self.lon_e7[i] = lon_e7
+        self.speed_mmps[i] = speed_mmps
+        self.radius_cm[i] = radius_cm
+        self.line_no[i] = line_no
+        k = 0 if i & (_PAGE - 1) == 0 else self._names_len
+        if name_b:
+            self._names[i >> _PAGE_SHIFT][k : k + len(name_b)] = name_b
+            k += len(name_b)
+        self._names_len = k
+        self.name_end[i] = k
+        self.n = i + 1
+
+    def finish(self):
+        """Track distances of the waypoints; the sequence views."""
+        n = self.n
+        self.start_m = _Paged(_FLOAT_CODE, 8 if _FLOAT_CODE == "d" else 4, n)
+        s = 0.0
+        for i in range(n - 1):
+            s += self.leg_length_m(i)
+            self.start_m[i + 1] = s
+        self.length_m = s
+        self.waypoints = _Seq(n, self.waypoint)
+        self.legs = _Seq(n - 1 if n > 1 else 0, self.leg)
+
+    # ---- waypoint fields
+    def speed_mps(self, i):
+        return self.speed_mmps[i] / 1000
+
+    def radius_m(self, i):
+        """Waypoint i's arrival radius (m) or None."""
+        r = self.radius_cm[i]
+        return r / 100 if r else None
+
+    def name_of(self, i):
+        a = self.name_end[i - 1] if i & (_PAGE - 1) else 0
+        b = self.name_end[i]
+        return self._names[i >> _PAGE_SHIFT][a:b].decode() if b > a else None
+
+    def waypoint(self, i):
+        return Waypoint(self.lat_e7[i], self.lon_e7[i], self.speed_mps(i), self.name_of(i),
+                        self.radius_m(i), self.line_no[i])
+
+    # ---- legs
+    def leg_length_m(self, i):
+        return geo.dist_bearing(self.lat_e7[i], self.lon_e7[i], self.lat_e7[i + 1], self.lon_e7[i + 1])[0]
+
+    def leg(self, i):
+        """Leg i (0 .. n-2), from the cache or computed."""
+        slot = i % _LEG_CACHE
+        if self._cache_i[slot] == i:
+            return self._cache_leg[slot]
+        lat = self.lat_e7
+        lon = self.lon_e7
+        d, brg = geo.dist_bearing(lat[i], lon[i], lat[i + 1], lon[i + 1])
+        end_brg = geo.final_bearing_deg(lat[i], lon[i], lat[i + 1], lon[i + 1])
+        leg = Leg(i, d, brg, end_brg, self.speed_mps(i))
+        leg.start_m = self.start_m[i]
+        if i + 2 < self.n:
+            brg_next = geo.dist_bearing(lat[i + 1], lon[i + 1], lat[i + 2], lon[i + 2])[1]
+            leg.turn_deg = wrap180(brg_next - end_brg)
+        self._cache_i[slot] = i
+        self._cache_leg[slot] = leg
+        return leg
 
     def duration_s(self):
         """Expected time to sail the legs at their speeds (no turns or accelerations)."""
         s = 0.0
-        for leg in self.legs:
-            s += leg.length_m / leg.speed_mps
+        for i in range(self.n - 1):
+            s += self.leg_length_m(i) / self.speed_mps(i)
         return s
+
+
+def from_waypoints(waypoints, name=None):
+    """A Track from waypoint objects (lat_e7, lon_e7, speed_mps, optional name, radius_m,
+    line_no), e.g. a log's TRACK record; not validated."""
+    names = [((getattr(w, "name", None) or "").encode()) for w in waypoints]
+    per_page = [0] * ((len(names) + _PAGE - 1) // _PAGE)
+    for i in range(len(names)):
+        per_page[i >> _PAGE_SHIFT] += len(names[i])
+    trk = Track(len(waypoints), name, per_page)
+    for w, nb in zip(waypoints, names):
+        r = getattr(w, "radius_m", None)
+        trk.append(w.lat_e7, w.lon_e7, _mm(w.speed_mps), nb, 0 if r is None else max(1, _cm(r)),
+                   getattr(w, "line_no", 0))
+    trk.finish()
+    return trk
+
+
+def _mm(v):
+    return int(v * 1000 + 0.5)
+
+
+def _cm(v):
+    return int(v * 100 + 0.5)
 
 
 def corner_deviation_m(turn_deg, radius_m):
@@ -136,37 +290,118 @@ def _coord(text, what, limit_e7, line_no):
     return v
 
 
-def parse_track_csv(text, min_leg_m=MIN_LEG_M, max_speed_mps=MAX_SPEED_MPS, name=None):
-    """Parse the CSV text of a track -> Track; raises TrackError(line_no, message)."""
-    if isinstance(text, bytes):
-        try:
-            text = text.decode()
-        except UnicodeError:
-            raise TrackError(0, "the file is not UTF-8 text")
-    cols = None
-    wps = []
+def _lines(src):
+    """(line_no, raw line) of a str, bytes or a file opened in binary or text mode, one line at
+    a time (never a list of all lines). A file is read with a line limit."""
     line_no = 0
-    for raw in text.split("\n"):
+    if isinstance(src, (str, bytes, bytearray)):
+        nl = "\n" if isinstance(src, str) else b"\n"
+        i = 0
+        n = len(src)
+        while i <= n:
+            j = src.find(nl, i)
+            if j < 0:
+                j = n
+            line_no += 1
+            if j - i > MAX_LINE_BYTES:
+                raise TrackError(line_no, "line longer than %d characters" % MAX_LINE_BYTES)
+            yield line_no, src[i:j]
+            i = j + 1
+        return
+    while True:
+        raw = src.readline(MAX_LINE_BYTES + 1)
+        if not raw:
+            return
         line_no += 1
-        hash_at = raw.find("#")
-        line = (raw if hash_at < 0 else raw[:hash_at]).strip()
-        if line.startswith("\ufeff"):  # a spreadsheet's byte-order mark
-            line = line[1:].strip()
+        if len(raw) > MAX_LINE_BYTES:
+            raise TrackError(line_no, "line longer than %d characters" % MAX_LINE_BYTES)
+        yield line_no, raw
+
+
+def _clean(raw, line_no):
+    """The line's text without comment, blanks and byte-order mark ('' for none)."""
+    if not isinstance(raw, str):
+        try:
+            raw = bytes(raw).decode()
+        except UnicodeError:
+            raise TrackError(line_no, "the file is not UTF-8 text")
+    hash_at = raw.find("#")
+    line = (raw if hash_at < 0 else raw[:hash_at]).strip()
+    if line.startswith("\ufeff"):  # a spreadsheet's byte-order mark
+        line = line[1:].strip()
+    return line
+
+
+def _header(line, line_no):
+    cols = [f.lower() for f in _split_fields(line)]
+    for c in cols:
+        if c not in COLUMNS:
+            raise TrackError(line_no, "unknown column '%s' (known: %s)" % (c, ", ".join(COLUMNS)))
+        if cols.count(c) > 1:
+            raise TrackError(line_no, "column '%s' appears twice" % c)
+    for c in ("lon", "lat", "speed_mps"):
+        if c not in cols:
+            raise TrackError(line_no, "header lacks the column '%s' (need lon, lat, speed_mps)" % c)
+    return cols
+
+
+def _rewind(src):
+    if not isinstance(src, (str, bytes, bytearray)):
+        src.seek(0)
+
+
+def _survey(src):
+    """First pass: (waypoint lines, bytes of their names per page), refusing more than MAX_WAYPOINTS
+    before anything is allocated for them."""
+    name_col = -1
+    n = 0
+    name_bytes = []  # per page of _PAGE waypoints
+    seen_header = False
+    for line_no, raw in _lines(src):
+        if line_no > MAX_LINES:
+            raise TrackError(line_no, "more than %d lines" % MAX_LINES)
+        line = _clean(raw, line_no)
         if not line:
             continue
-        fields = _split_fields(line)
-        if cols is None:
-            cols = [f.lower() for f in fields]
-            header_line = line_no
-            for c in cols:
-                if c not in COLUMNS:
-                    raise TrackError(line_no, "unknown column '%s' (known: %s)" % (c, ", ".join(COLUMNS)))
-                if cols.count(c) > 1:
-                    raise TrackError(line_no, "column '%s' appears twice" % c)
-            for c in ("lon", "lat", "speed_mps"):
-                if c not in cols:
-                    raise TrackError(line_no, "header lacks the column '%s' (need lon, lat, speed_mps)" % c)
+        if not seen_header:
+            cols = _header(line, line_no)
+            name_col = cols.index("name") if "name" in cols else -1
+            seen_header = True
             continue
+        if n & (_PAGE - 1) == 0:
+            name_bytes.append(0)
+        n += 1
+        if n > MAX_WAYPOINTS:
+            raise TrackError(line_no, "more than %d waypoints: the most a track may have "
+                             "(tracks/README.md)" % MAX_WAYPOINTS)
+        if name_col >= 0:
+            fields = line.split(",")
+            if name_col < len(fields):
+                name_bytes[-1] += len(fields[name_col].strip().encode())
+    return n, name_bytes
+
+
+def parse_track_csv(src, min_leg_m=MIN_LEG_M, max_speed_mps=MAX_SPEED_MPS, name=None):
+    """Parse a track -> Track; raises TrackError(line_no, message).
+
+    src: the CSV as str or bytes, or a file opened in binary mode (read twice, line by line:
+    first to count the waypoints and refuse more than MAX_WAYPOINTS, then into arrays sized
+    for them)."""
+    n_max, name_bytes = _survey(src)
+    _rewind(src)
+    trk = Track(n_max, name, name_bytes)
+    cols = None
+    header_line = 0
+    prev_line = 0
+    for line_no, raw in _lines(src):
+        line = _clean(raw, line_no)
+        if not line:
+            continue
+        if cols is None:
+            cols = _header(line, line_no)
+            header_line = line_no
+            continue
+        fields = _split_fields(line)
         if len(fields) > len(cols):
             raise TrackError(line_no, "%d fields, the header has %d columns" % (len(fields), len(cols)))
         while len(fields) < len(cols):  # trailing optional fields may be left out
@@ -186,30 +421,35 @@ def parse_track_csv(text, min_leg_m=MIN_LEG_M, max_speed_mps=MAX_SPEED_MPS, name
         if spd > max_speed_mps:
             raise TrackError(line_no, "speed_mps %s is above %.1f m/s (a unit mix-up? knots = 0.514 m/s)"
                              % (rec["speed_mps"], max_speed_mps))
-        radius = None
+        radius_cm = 0
         if rec.get("radius_m", ""):
             radius = _num(rec["radius_m"], "radius_m", line_no)
             if not (0.0 < radius <= MAX_RADIUS_M):
                 raise TrackError(line_no, "radius_m %s must be in (0, %d] m" % (rec["radius_m"], MAX_RADIUS_M))
-        wp_name = rec.get("name", "") or None
-        if wps and wps[-1].lat_e7 == lat and wps[-1].lon_e7 == lon:
-            raise TrackError(line_no, "repeats the previous point (line %d)" % wps[-1].line_no)
-        wps.append(Waypoint(lat, lon, spd, wp_name, radius, line_no))
+            radius_cm = max(1, _cm(radius))
+        k = trk.n
+        if k and trk.lat_e7[k - 1] == lat and trk.lon_e7[k - 1] == lon:
+            raise TrackError(line_no, "repeats the previous point (line %d)" % prev_line)
+        if k >= n_max:  # the file changed under us between the passes
+            raise TrackError(line_no, "the file changed while it was read")
+        trk.append(lat, lon, _mm(spd), rec.get("name", "").encode(), radius_cm, line_no)
+        prev_line = line_no
     if cols is None:
         raise TrackError(1, "no header line (lon, lat, speed_mps ...) and no waypoints")
-    if len(wps) < 2:
-        raise TrackError(wps[-1].line_no if wps else header_line,
-                         "a track needs at least 2 waypoints, found %d" % len(wps))
-    for i in range(len(wps) - 1):
-        if wps[i].speed_mps <= 0.0:
-            raise TrackError(wps[i].line_no, "speed_mps 0 on a waypoint that starts a leg (only the "
+    n = trk.n
+    if n < 2:
+        raise TrackError(trk.line_no[n - 1] if n else header_line,
+                         "a track needs at least 2 waypoints, found %d" % n)
+    for i in range(n - 1):
+        if trk.speed_mmps[i] == 0:
+            raise TrackError(trk.line_no[i], "speed_mps 0 on a waypoint that starts a leg (only the "
                              "last waypoint may have speed 0)")
-    trk = Track(wps, name)
-    for leg in trk.legs:
-        if leg.length_m < min_leg_m:
-            a = wps[leg.i]
-            raise TrackError(wps[leg.i + 1].line_no, "leg from line %d is %.1f m long; legs shorter "
-                             "than %.1f m cannot be steered" % (a.line_no, leg.length_m, min_leg_m))
+    for i in range(n - 1):
+        d = trk.leg_length_m(i)
+        if d < min_leg_m:
+            raise TrackError(trk.line_no[i + 1], "leg from line %d is %.1f m long; legs shorter "
+                             "than %.1f m cannot be steered" % (trk.line_no[i], d, min_leg_m))
+    trk.finish()
     return trk
 
 
@@ -256,24 +496,43 @@ def validate(trk, boat=None):
     return warnings
 
 
-def track_id(text):
+def track_id(src):
     """Short id of a track file's content: its CRC-32 (as zlib.crc32) in 8 hex digits, to match
-    saved state and logs with the file. binascii when the build has it, else a bitwise loop (a
-    one-off per load)."""
-    if isinstance(text, str):
-        text = text.encode()
+    saved state and logs with the file. src: str, bytes or a binary file (read in 256 B chunks
+    from where it is). binascii when the build has it, else a bitwise loop (a one-off per load)."""
+    if isinstance(src, str):
+        src = src.encode()
+    if isinstance(src, (bytes, bytearray)):
+        return "%08x" % _crc32(src, 0)
+    crc = 0
+    while True:
+        chunk = src.read(256)
+        if not chunk:
+            return "%08x" % crc
+        crc = _crc32(chunk, crc)
+
+
+def _crc32(data, crc):
     try:
         import binascii
 
-        crc = binascii.crc32(text) & 0xFFFFFFFF
+        return binascii.crc32(data, crc) & 0xFFFFFFFF
     except (ImportError, AttributeError):
-        crc = 0xFFFFFFFF
-        for b in text:
+        crc ^= 0xFFFFFFFF
+        for b in data:
             crc ^= b
             for _ in range(8):
                 crc = (crc >> 1) ^ (0xEDB88320 if crc & 1 else 0)
-        crc ^= 0xFFFFFFFF
-    return "%08x" % crc
+        return crc ^ 0xFFFFFFFF
+
+
+def load_file(path, min_leg_m=MIN_LEG_M):
+    """(Track, track id) of a track file, parsed line by line; raises TrackError, OSError (and
+    MemoryError when even a valid track does not fit)."""
+    with open(path, "rb") as f:
+        trk = parse_track_csv(f, min_leg_m=min_leg_m)
+        f.seek(0)
+        return trk, track_id(f)
 
 
 def leg_table(trk):

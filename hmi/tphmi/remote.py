@@ -45,9 +45,10 @@ class RemoteHmi:
             self.bad_datagrams += 1
             self.last_error = str(e)
             return False
-        if self._scratch.boat_id != self.boat_id:
+        boat_id = self._scratch.boat_id  # pyright: ignore[reportAttributeAccessIssue] (set from FIELDS)
+        if boat_id != self.boat_id:
             self.bad_datagrams += 1
-            self.last_error = "status from boat %d" % self._scratch.boat_id
+            self.last_error = "status from boat %d" % boat_id
             return False
         self.status, self._scratch = self._scratch, self.status
         self.have_status = True

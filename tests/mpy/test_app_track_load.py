@@ -1,0 +1,101 @@
+# App.load_track never raises: a bad, too large or unreadable file, or one that does not fit in
+# memory, gives a TRACK event and a refusal, and the active track stays.
+import os
+import sys
+
+import tpassert as t
+from trackpilot import config, track
+
+sys.path.append("firmware/tools")
+import track_heap  # noqa: E402
+
+DIR = "/tmp/trackpilot_test_app_track"
+
+
+class _Wiring:
+    def __init__(self):
+        for d in (DIR, DIR + "/log"):
+            try:
+                os.mkdir(d)
+            except OSError:
+                pass
+        self.log_dir = DIR + "/log"
+        self.state_path = DIR + "/state.json"
+        self.lines = []
+        self.t = 0
+
+    def ticks_ms(self):
+        return self.t
+
+    def rand(self, n=1):
+        return 0
+
+    def statvfs(self, path):
+        return (4096, 4096, 10000, 9000, 9000, 0, 0, 0, 0, 255)
+
+    def debug(self, text):
+        self.lines.append(text)
+
+
+def _app():
+    from trackpilot.app import App
+
+    w = _Wiring()
+    return App(w, config.defaults(), ()), w
+
+
+def _write(path, data):
+    with open(path, "wb") as f:
+        f.write(data)
+
+
+def test_good_then_bad_files_keep_the_track():
+    app, w = _app()
+    good = DIR + "/good.csv"
+    track_heap.write_track(good, 40)
+    t.eq(app.load_track(good), (True, "ok"))
+    first = app.track
+    t.eq(len(first.waypoints), 40)
+    cases = [
+        (b"lon,lat,speed_mps\n3.61,51.49,1\n3.61,51.4901,x\n", "line 3: speed_mps 'x' is not a number"),
+        (b"lon,lat,speed_mps\n3.61,51.49,1\n3.61,51.4901,1\n\xff\xfe\n", "line 4: the file is not UTF-8 text"),
+        (b"\x00" * 3000, "line 1: line longer than 512 characters"),
+    ]
+    for data, want in cases:
+        _write(DIR + "/bad.csv", data)
+        ok, msg = app.load_track(DIR + "/bad.csv")
+        t.true(not ok and want in msg, msg)
+        t.true(app.track is first, "the active track stays")
+        t.true(("TRACK track %s/bad.csv rejected: %s" % (DIR, want)) in w.lines[-1], w.lines[-1])
+    ok, msg = app.load_track(DIR + "/missing.csv")
+    t.true(not ok and "rejected" in msg and app.track is first, msg)
+
+
+def test_too_many_waypoints_refused():
+    app, w = _app()
+    path = DIR + "/big.csv"
+    track_heap.write_track(path, track.MAX_WAYPOINTS + 1)
+    ok, msg = app.load_track(path)
+    t.true(not ok, msg)
+    t.true("line 2002: more than 2000 waypoints" in msg, msg)
+    t.eq(app.track, None)
+
+
+def test_memory_error_is_a_refusal():
+    app, w = _app()
+    good = DIR + "/good.csv"
+    track_heap.write_track(good, 40)
+    app.load_track(good)
+    first = app.track
+    real = track.load_file
+
+    def no_memory(path, min_leg_m=track.MIN_LEG_M):
+        raise MemoryError("memory allocation failed")
+
+    track.load_file = no_memory
+    try:
+        ok, msg = app.load_track(good)
+    finally:
+        track.load_file = real
+    t.true(not ok and "not enough memory" in msg and "previous track stays" in msg, msg)
+    t.true(app.track is first)
