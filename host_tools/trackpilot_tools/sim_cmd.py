@@ -4,6 +4,8 @@ import json
 import sys
 from pathlib import Path
 
+from .errors import UserError
+
 
 def add_parser(p):
     from .sim import scenarios
@@ -58,11 +60,61 @@ def build_overrides(args):
     return over
 
 
+def check_inputs(args):
+    """Every input checked before the run starts: (simulator overrides, firmware settings).
+    Raises UserError with one line naming the mistake."""
+    from .sim import params as pm
+    from .sim import scenarios
+    from .sim.runner import _fw_import
+
+    _fw_import()
+    from trackpilot import config as fwconfig
+    from trackpilot.track import TrackError, parse_track_csv
+
+    track = Path(args.track)
+    if not track.is_file():
+        raise UserError("no such track file: %s" % track)
+    try:
+        parse_track_csv(track.read_bytes())
+    except TrackError as e:
+        raise UserError("%s: %s (check it with `trackpilot track check %s`)" % (track, e, track))
+    for f in args.fault:
+        try:
+            scenarios.parse_fault(f)
+        except ValueError as e:
+            raise UserError(str(e))
+    try:
+        over = build_overrides(args)
+        fw_set = pm.parse_set(args.fw_set)
+    except ValueError as e:
+        raise UserError(str(e))
+    if args.params and not Path(args.params).is_file():
+        raise UserError("no such parameter file: %s" % args.params)
+    try:
+        p = pm.load(args.params, over)
+        pm.merge(p, scenarios.PRESETS[args.scenario])
+    except KeyError as e:
+        raise UserError(e.args[0] + " (the names are in sim/boat_params.json)")
+    except ValueError as e:  # a parameter file that is not JSON
+        raise UserError("%s: not a JSON parameter file (%s)" % (args.params, e))
+    errors = fwconfig.validate(fw_set)
+    if errors:
+        raise UserError("--fw-set: " + "; ".join(errors))
+    for name in ("duration_s", "realtime_speed"):
+        v = getattr(args, name)
+        if v is not None and not v > 0:
+            raise UserError("--%s must be > 0" % name.replace("_", "-"))
+    if Path(args.out).exists() and not Path(args.out).is_dir():
+        raise UserError("--out %s is a file, not a folder" % args.out)
+    return over, fw_set
+
+
 def run(args):
     from .sim import params as pm
     from .sim import report
     from .sim.runner import SimRun
 
+    check_inputs(args)
     out = Path(args.out)
     run_ = SimRun(args.track, out, seed=args.seed, law=args.law, scenario=args.scenario,
                   faults=args.fault, param_file=args.params, overrides=build_overrides(args),
