@@ -38,10 +38,13 @@ def load(path=None, overrides=None):
 
 
 def parse_set(items):
-    """["boat.k_prime=1.0", ...] -> nested dict (values parsed as JSON when they parse)."""
+    """["boat.k_prime=1.0", ...] -> nested dict (values parsed as JSON when they parse).
+    ValueError for an item that is not SECTION.KEY=VALUE."""
     out = {}
     for item in items or ():
-        key, _, text = item.partition("=")
+        key, eq, text = item.partition("=")
+        if not eq or "." not in key or not all(key.split(".")):
+            raise ValueError("%r: expected SECTION.KEY=VALUE, e.g. pilot.deadband_deg=3" % item)
         try:
             value = json.loads(text)
         except ValueError:

@@ -61,10 +61,15 @@ class SimRun:
                  fw_config_bytes=None):
         self.track_path = Path(track_path)
         self.udp_out = None
-        if udp_out:  # (status port, NMEA port) on 127.0.0.1, as the boat would broadcast them
+        if udp_out:  # (host, status port, NMEA port), as the boat would send them; (ports) = localhost
             import socket
 
-            self.udp_out = (socket.socket(socket.AF_INET, socket.SOCK_DGRAM), udp_out[0], udp_out[1])
+            if len(udp_out) == 2:
+                udp_out = ("127.0.0.1",) + tuple(udp_out)
+            sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+            sock.setsockopt(socket.SOL_SOCKET, socket.SO_BROADCAST, 1)  # x.x.x.255 for OpenCPN on the LAN
+            self.udp_out = (sock, udp_out[1], udp_out[2])
+            self.udp_host = udp_out[0]
         self.fw_script = Path(fw_script) if fw_script else SIM_MAIN
         self.out = Path(out_dir)
         self.seed = seed
@@ -405,7 +410,7 @@ class SimRun:
 
     def _udp_send(self, data, port):
         try:
-            self.udp_out[0].sendto(data, ("127.0.0.1", port))
+            self.udp_out[0].sendto(data, (self.udp_host, port))
         except OSError:
             pass  # nobody listening is fine
 

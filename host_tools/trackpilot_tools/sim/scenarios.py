@@ -47,13 +47,21 @@ FAULTS = {
 
 
 def parse_fault(text):
-    """'name@t[:d]' -> (name, t_s, d_s or None)."""
+    """'name@t[:d]' -> (name, t_s, d_s or None); ValueError with a one-line reason."""
     name, sep, when = text.partition("@")
-    if not sep or name not in FAULTS:
-        raise ValueError("fault %r: expected NAME@T[:D] with NAME one of %s" % (text, ", ".join(sorted(FAULTS))))
+    if name not in FAULTS:
+        raise ValueError("fault %r: unknown name %r; names: %s" % (text, name, ", ".join(sorted(FAULTS))))
+    if not sep:
+        raise ValueError("fault %r: give its start time, %s@T%s (T, D in seconds)"
+                         % (text, name, ":D" if FAULTS[name][0] else ""))
     t, _, d = when.partition(":")
-    t_s = float(t)
-    d_s = float(d) if d else None
+    try:
+        t_s = float(t)
+        d_s = float(d) if d else None
+    except ValueError:
+        raise ValueError("fault %r: T and D must be numbers of seconds (%s@T:D)" % (text, name)) from None
+    if t_s < 0 or (d_s is not None and d_s <= 0):
+        raise ValueError("fault %r: T must be >= 0 and D > 0 seconds" % text)
     if FAULTS[name][0] and d_s is None:
         raise ValueError("fault %r needs a duration: %s@T:D" % (text, name))
     return name, t_s, d_s
