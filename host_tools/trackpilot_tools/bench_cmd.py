@@ -577,6 +577,8 @@ def add_parser(p):
                    "one per boat)")
     g.add_argument("--robust-one", type=int, metavar="BOAT", help="rerun one sample alone: boat seed (with --case, --laws)")
     g.add_argument("--case", default="straight_2.0", help="the case for --robust-one")
+    g.add_argument("--fw-set", action="append", metavar="SEC.KEY=V",
+                   help="firmware configuration override for every run (e.g. guidance.los_lookahead_gain=3)")
     g.add_argument("--scheduler", metavar="tcp://HOST:8786",
                    help="a running Dask scheduler (default: a LocalCluster of --jobs workers)")
     p.set_defaults(func=run)

@@ -203,7 +203,7 @@ def run_job(job):
         track = _write_track(case, str(base / "track.csv"))
         p, flat = sim_params(case, job["boat"])
         r = SimRun(track, base / "run", seed=job["boat"] if job["boat"] else 1, law=job["law"], params=p,
-                   faults=faults)
+                   faults=faults, fw_config=job.get("fw"))
         dog = bench_perf.watchdog(r, job.get("timeout", 300.0))
         res = r.run()
         dog.cancel()
@@ -277,6 +277,8 @@ def distribution(results, metric, worst="max"):
 
 def goal_straight(r):
     j = r["job"]
+    if j["boat"] == 0:
+        return False
     if not j["case"].startswith("straight_") or float(j["case"].split("_")[1]) not in GOAL_SPEEDS:
         return False
     return r["params"].get("water.current_mps", 0.0) <= GOAL_CURRENT_MPS + 1e-9
@@ -400,20 +402,27 @@ def plots(results, out):
 
 
 # ---------------------------------------------------------------------- the command
-def make_jobs(n, cases, laws, seed0=1, quick=False, timeout=300.0):
+def make_jobs(n, cases, laws, seed0=1, quick=False, timeout=300.0, fw=None):
     """Boats seed0 .. seed0+n-1 (plus boat 0, the nominal one, for every case and law). --quick:
     each boat sails one straight, the speed cycling 1, 2, 3 m/s over the boats."""
     jobs = []
     for law in laws:
         for case in cases:
-            jobs.append({"case": case, "law": law, "boat": 0, "timeout": timeout})
+            jobs.append({"case": case, "law": law, "boat": 0, "timeout": timeout, "fw": fw})
         for b in range(seed0, seed0 + n):
             bc = ["straight_%.1f" % GOAL_SPEEDS[b % 3]] if quick else cases
             for case in bc:
-                jobs.append({"case": case, "law": law, "boat": b, "timeout": timeout})
+                jobs.append({"case": case, "law": law, "boat": b, "timeout": timeout, "fw": fw})
     # the long runs first, so workers finish together
     jobs.sort(key=lambda j: 0 if j["case"] in ("straight_0.5", "lawnmower", "mooring") else 1)
     return jobs
+
+
+def fw_overrides(items):
+    """["guidance.los_lookahead_gain=3", ...] -> firmware config sections (None if empty)."""
+    from .sim.params import parse_set
+
+    return parse_set(items) or None
 
 
 def run(args):
@@ -422,7 +431,7 @@ def run(args):
     out.mkdir(parents=True, exist_ok=True)
     if args.robust_one is not None:
         job = {"case": args.case, "law": args.laws.split(",")[0], "boat": args.robust_one,
-               "out": str(out), "timeout": args.run_timeout}
+               "out": str(out), "timeout": args.run_timeout, "fw": fw_overrides(args.fw_set)}
         if args.case not in case_table():
             print("unknown case %r (one of %s)" % (args.case, ", ".join(case_table())))
             return 2
@@ -440,7 +449,8 @@ def run(args):
     if quick and not args.robust_cases:
         cases = ["straight_%.1f" % v for v in GOAL_SPEEDS]
     laws = args.laws.split(",")
-    jobs = make_jobs(args.robust, cases, laws, args.robust_seed, quick, args.run_timeout)
+    fw = fw_overrides(args.fw_set)
+    jobs = make_jobs(args.robust, cases, laws, args.robust_seed, quick, args.run_timeout, fw)
     where = args.scheduler or "LocalCluster, %d workers" % args.jobs
     print("robust bench: %d boats x %s x %s = %d runs (+ nominal) on %s" % (
         args.robust, "1 straight (quick)" if quick else "%d cases" % len(cases), "/".join(laws), len(jobs), where),
@@ -465,7 +475,7 @@ def run(args):
     goal = {law: goals(results, law) for law in laws}
     rank = plots(results, out)
     cores = os.cpu_count() or 1
-    meta = {"boats": args.robust, "seed0": args.robust_seed, "cases": cases, "laws": laws, "quick": quick,
+    meta = {"boats": args.robust, "fw_set": args.fw_set or [], "seed0": args.robust_seed, "cases": cases, "laws": laws, "quick": quick,
             "runs": len(results), "wall_s": round(wall, 1), "engine": where, "cores": cores,
             "runs_per_s": round(len(results) / wall, 3), "runs_per_s_per_core": round(len(results) / wall / min(
                 cores, args.jobs if not args.scheduler else cores), 3),
@@ -488,7 +498,7 @@ def report_md(meta, summ, goal, rank):
     L = ["# Robustness benchmark", "",
          "%(boats)d random boats (seeds %(seed0)d..), cases %(cases)s, laws %(laws)s; %(runs)d runs in %(wall_s).0f s "
          "on %(engine)s (%(runs_per_s).2f runs/s, %(runs_per_s_per_core).2f runs/s per core, %(sim_s).0f s "
-         "simulated); %(date)s. Definitions: docs/BENCHMARK_ROBUST.md." % dict(meta, cases=",".join(meta["cases"]),
+         "simulated); %(date)s. Firmware overrides: %(fw)s. Definitions: docs/BENCHMARK_ROBUST.md." % dict(meta, cases=",".join(meta["cases"]), fw=" ".join(meta["fw_set"]) or "none",
                                                                                laws=",".join(meta["laws"])), ""]
     for law, g in goal.items():
         L += ["## Goals, `%s`" % law, "", "| goal | measured | status |", "|---|---|---|"]
