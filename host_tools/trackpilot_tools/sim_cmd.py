@@ -67,14 +67,25 @@ def run(args):
     from .sim.runner import SimRun
 
     out = Path(args.out)
+    try:
+        fw_bytes = Path(args.fw_config).read_bytes() if args.fw_config else None
+    except OSError as e:
+        print("trackpilot sim: cannot read --fw-config %s: %s" % (args.fw_config, e.strerror or e), file=sys.stderr)
+        return 2
     run_ = SimRun(args.track, out, seed=args.seed, law=args.law, scenario=args.scenario,
                   faults=args.fault, param_file=args.params, overrides=build_overrides(args),
                   duration_s=args.duration_s, realtime=args.realtime,
                   realtime_speed=args.realtime_speed,
                   udp_out=(10111, 10110) if (args.udp_out or args.realtime) else None,
                   fw_config=pm.parse_set(args.fw_set),
-                  fw_config_bytes=Path(args.fw_config).read_bytes() if args.fw_config else None,
+                  fw_config_bytes=fw_bytes,
                   reengage_s=args.reengage_s, quiet=not args.verbose)
+    if fw_bytes is None:
+        try:
+            run_._fw_config()  # checked here: a refused --fw-set is a plain error, not a traceback
+        except ValueError as e:
+            print("trackpilot sim: %s" % e, file=sys.stderr)
+            return 2
     res = run_.run()
     meta = {"track": str(args.track), "law": args.law, "scenario": args.scenario, "seed": args.seed,
             "faults": args.fault}
