@@ -73,6 +73,8 @@ SPEC = {
                     "(only the person's ENGAGE brings AUTO back)", "reset"),
     "button_standby": (None, "STANDBY at once, Standby key to the pilot", "standby"),
     "button_engage": (None, "already in AUTO: stays in AUTO (re-engage is harmless)", "keep"),
+    "remote_key_echo": (None, "takeover: a hand remote with our sender id repeating our key is a person: "
+                              "STANDBY + takeover alarm, the firmware stops keying the pilot", "takeover"),
     "button_ack": (None, "nothing sounding in AUTO: stays in AUTO (ACK only mutes)", "keep"),
 }
 
