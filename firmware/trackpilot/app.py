@@ -91,9 +91,9 @@ class App:
         if rejected(self.cfg_problems):
             # a person must know the boat runs on other settings than the file says: ENGAGE is
             # refused until they acknowledge (ACK) or the file is fixed (preconditions)
-            fallback = "the last good configuration" if any(
-                "last good" in p for p in self.cfg_problems) else "the built-in defaults"
-            self.mm.raise_alarm(M.AL_CONFIG, "config file rejected, running on %s: ACK to accept" % fallback)
+            # short: the HMI's status datagram carries 60 bytes of text
+            fallback = "last good" if any("last good" in p for p in self.cfg_problems) else "defaults"
+            self.mm.raise_alarm(M.AL_CONFIG, "config rejected: on %s; ACK to accept" % fallback)
         self.last_epoch_ms = None
         self.epochs = 0
         self.rpm_cmd = 0
@@ -276,7 +276,7 @@ class App:
     def preconditions(self, t_ms):
         """The first engage precondition that fails, or None."""
         if self.mm.alarms & M.AL_CONFIG and not self.mm.acked & M.AL_CONFIG:
-            return "config file rejected: press ACK to sail on the fallback settings, or fix the file"
+            return "config rejected: ACK to sail on fallback"
         if self.track is None:
             return "no valid track loaded"
         fix = self.fix

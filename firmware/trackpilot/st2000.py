@@ -31,8 +31,8 @@ locked course in a later 0x84 equals the course expected after it) or timed out
 
 A person taking over: any keystroke datagram that reaches on_datagram -> EV_TAKEOVER at once
 (0x86 carries its own check byte). Our own keystrokes never get here: StLink consumes their echo
-byte by byte (and a late echo of what it just wrote), so a hand remote with our sender id still
-wins. Sender 0 (the pilot's own keypad) is refused as our id by the config schema.
+byte by byte (it writes a byte only after the previous one's echo), so a hand remote with our
+sender id still wins. Sender 0 (the pilot's own keypad) is refused as our id by the config schema.
 The takeover race: our Auto (recovery or engage) may reach the pilot just after a person's
 Standby (the pilot acts on its own keypad at once and tells the bus later, so bus order does not
 say which came first). When the pilot goes to Auto unasked after a takeover, our last key was Auto
@@ -142,7 +142,7 @@ class St2000:
         self._key_t = 0
         self._key_expect = 0.0
         self._last_key_t = None
-        self._sent_key = None  # last keystroke sent (the takeover race)
+        self._sent_key = None  # our last keystroke on the bus (on_sent), for the takeover race
         self._sent_key_t = 0
         self._person_key = None  # the last keystroke not ours
         self._unconf = 0
@@ -208,8 +208,6 @@ class St2000:
             self.send_blocked += 1
             return False
         self.keys_sent += 1
-        self._sent_key = key
-        self._sent_key_t = t_ms
         self._last_key_t = t_ms
         return True
 
@@ -241,6 +239,7 @@ class St2000:
             self._event(EV_ENGAGE_FAILED, t_ms, "no status from the pilot")
             return False
         self._reset_hang()
+        self._person_key = None
         if self.mode == st.MODE_AUTO:
             self.state = ENGAGED
             self._want = None

@@ -727,7 +727,7 @@ def run(args):
                         log("accuracy %d/%d" % (len(results), len(acc)))
                 elif tag == "fault":
                     if "error" in res:
-                        res = {"name": job["fault"], "fault": job["fault"], "expected": bench_faults.SPEC[job["fault"]][1],
+                        res = {"name": job["fault"], "fault": job["fault"], "expected": bench_faults.expected_text(job["fault"]),
                                "reaction_ok": False, "detect_s": None, "recover_s": None, "max_xte_m": None,
                                "finished": False, "modes": [], "note": res["error"]}
                     faults.append(res)

@@ -116,6 +116,8 @@ def check_inputs(args):
     for name in ("udp_port", "nmea_port"):
         if not 0 < getattr(args, name) < 65536:
             raise UserError("--%s must be a UDP port, 1..65535" % name.replace("_", "-"))
+    if args.fw_config and not Path(args.fw_config).is_file():
+        raise UserError("no such firmware config file: %s" % args.fw_config)
     if Path(args.out).exists() and not Path(args.out).is_dir():
         raise UserError("--out %s is a file, not a folder" % args.out)
     return over, fw_set
@@ -157,13 +159,14 @@ def _sail(args, out):
     from .sim import report
     from .sim.runner import SimRun
 
+    fw_bytes = Path(args.fw_config).read_bytes() if args.fw_config else None  # readable: check_inputs
     run_ = SimRun(args.track, out, seed=args.seed, law=args.law, scenario=args.scenario,
                   faults=args.fault, param_file=args.params, overrides=build_overrides(args),
                   duration_s=args.duration_s, realtime=args.realtime,
                   realtime_speed=args.realtime_speed,
                   udp_out=udp_targets(args),
                   fw_config=pm.parse_set(args.fw_set),
-                  fw_config_bytes=Path(args.fw_config).read_bytes() if args.fw_config else None,
+                  fw_config_bytes=fw_bytes,
                   reengage_s=args.reengage_s, quiet=not args.verbose)
     res = run_.run()
     meta = {"track": str(args.track), "law": args.law, "scenario": args.scenario, "seed": args.seed,

@@ -105,3 +105,16 @@ def test_estop_still_held_after_a_reset_refuses_engage(tmp_path):
     assert [v for t, v in ms if t >= 85][-1] == "ESTOP", ms
     refused = [e.text for e in d.events if e.kind == "REFUSED"]
     assert any("E-stop" in t for t in refused), refused
+
+
+def test_hand_remote_with_our_sender_id_repeating_our_key_is_a_takeover(tmp_path):
+    """14.3: the old echo test took any same key from our sender id within echo_window_ms (1 s)
+    for our own echo; a hand remote (Z101) with our sender id pressing it was not a person."""
+    r, res, d = sail(tmp_path / "z", scenario="current", faults=["remote_key_echo@30"], duration_s=60)
+    fault = [t for t, k, txt in res["events"] if k == "fault" and "hand remote repeats" in txt]
+    assert fault, res["events"]
+    ms = modes(res)
+    after = [v for t, v in ms if t >= fault[0]]
+    assert after and after[0] == "STANDBY", ms
+    tk = [e.text for e in d.events if e.kind == "PILOT" and e.text.startswith("TAKEOVER")]
+    assert tk and "sender 1" in tk[0], tk

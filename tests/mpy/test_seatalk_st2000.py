@@ -194,7 +194,7 @@ def test_hand_remote_with_our_sender_id_wins():
     r.run(1000)
     r.drv.steer_to(5, r.t)
     r.run(150)
-    T.eq(r.drv._sent_key, st.KEY_PLUS_1)
+    T.eq(r.sent[-1], st.encode_86(st.KEY_PLUS_1, r.drv.sender_id))  # we just sent +1
     r.drv.on_datagram(st.encode_86(st.KEY_PLUS_1, r.drv.sender_id), r.t)
     T.eq(r.drv.state, sp.TAKEN_OVER)
 

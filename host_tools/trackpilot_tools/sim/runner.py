@@ -325,8 +325,25 @@ class SimRun:
             self.send_input(t_ms, "button=ENGAGE")
         elif name == "button_ack":
             self.send_input(t_ms, "button=ACK")
+        elif name == "remote_key_echo":
+            self._remote_echo(t_us, self.pilot.keys_by_sender.get(self._fw_sender_id(), 0))
         if on and dur_s:
             self.sched.at(t_us + int(dur_s * 1e6), self._fault, name, False, None)
+
+    def _fw_sender_id(self):
+        return self.fw_config_extra.get("pilot", {}).get("sender_id", 1)
+
+    def _remote_echo(self, t_us, seen):
+        """Wait for the firmware's next keystroke, then the hand remote sends the same key with the
+        same sender id 0.1 s later."""
+        sid = self._fw_sender_id()
+        if self.pilot.keys_by_sender.get(sid, 0) > seen and getattr(self.pilot, "last_key", None):
+            _, key, _ = self.pilot.last_key
+            self.sched.at(t_us + 100_000, lambda t: self.bus.send("remote", stcodec.encode_86(sid, key), t))
+            self.events.append((t_us / 1e6, "fault", "hand remote repeats key %d as sender %d" % (key, sid)))
+            return
+        if t_us < (self.duration_s + 1) * 1e6:
+            self.sched.at(t_us + 10_000, self._remote_echo, seen)
 
     # ------------------------------------------------------------------ firmware process
     def _fw_config(self):

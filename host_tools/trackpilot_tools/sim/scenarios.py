@@ -39,6 +39,8 @@ FAULTS = {
     "st_other_talker": (True, "another instrument sends wind datagrams without waiting for idle (collisions)"),
     "motor_link_loss": (True, "the motor controller stops replying and ignores setpoints"),
     "estop": (True, "E-stop input active"),
+    "remote_key_echo": (False, "a hand remote with the firmware's sender id repeats the firmware's next "
+                               "keystroke 0.1 s after it (a person's key that looks like our own echo)"),
     "button_ack": (False, "a person presses ACK on the HMI"),
     "reset": (False, "the firmware restarts (process restarted with the same data dir)"),
     "button_standby": (False, "STANDBY pressed on the HMI"),

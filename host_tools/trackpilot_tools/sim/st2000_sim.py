@@ -150,6 +150,7 @@ class ST2000Sim:
             return
         sender, key = k
         self.keys_by_sender[sender] = self.keys_by_sender.get(sender, 0) + 1
+        self.last_key = (sender, key, t_us)
         self.sched.at(t_us + self.p["key_delay_ms"] * 1000, self._apply_key, key, sender, False)
 
     # ---------------------------------------------------------------- keys
