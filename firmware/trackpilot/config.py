@@ -2,7 +2,13 @@
 
 A file that does not parse or validate never replaces the active configuration: `load()` falls back
 to the last good copy (`config.good.json`, written whenever a file validates) and reports why, or to
-the defaults with the reason, never silently.
+the defaults with the reason, never silently. Anything wrong with the file (unreadable, not UTF-8,
+not JSON, out of memory) is a rejection like any other; load() never raises. `rejected(problems)`
+tells the app that a file was rejected: it raises the config alarm and refuses ENGAGE until a
+person acknowledges (docs/MODES.md).
+
+Secret settings (a key named password/secret/token/key, or ending in _password/_secret/_token/_key:
+`is_secret`) never have their value in an error message: errors go to the log, logs go to laptops.
 
 Usage:
     cfg, problems = load("/config.json")     # problems: list of strings to log; cfg always valid
@@ -38,7 +44,8 @@ SCHEMA = {
         # tables (seed_k_y_deg_per_m, los_lookahead_gain, ...): see _add_law_params below
     },
     "modes": {
-        "gnss_hold_s": (10.0, "f", 0.0, 120.0),
+        # GNSS gap inside AUTO: dead reckoning this long, then ALARM (docs/MODES.md "GNSS gaps")
+        "gnss_hold_s": (30.0, "f", 0.0, 120.0),
         "gnss_stale_ms": (1000, "i", 300, 10000),
         "xte_alarm_m": (5.0, "f", 0.5, 100.0),
         "on_arrival": ("standby", "s", ("standby", "hold"), None),
@@ -48,7 +55,7 @@ SCHEMA = {
         "motor_release_on_standby": (True, "b", None, None),
     },
     "pilot": {
-        "sender_id": (1, "i", 0, 15),
+        "sender_id": (1, "i", 1, 15),  # 0 is the pilot's own keypad: never ours
         "key_interval_ms": (250, "i", 50, 5000),
         "odd_rule": ("dotnet", "s", ("dotnet", "knauf"), None),
         "status_timeout_ms": (3500, "i", 1000, 30000),
@@ -93,7 +100,10 @@ SCHEMA = {
     "log": {
         "dir": ("/log", "s", None, None),
         "flush_ms": (1000, "i", 100, 10000),
-        "max_file_bytes": (1048576, "i", 4096, 16777216),
+        # retention budget (docs/LOG_FORMAT.md): parts of max_file_bytes; older sessions are
+        # deleted, oldest first, only when less than min_free_bytes (at most 1/8 of the
+        # filesystem) is free
+        "max_file_bytes": (262144, "i", 4096, 16777216),
         "min_free_bytes": (262144, "i", 0, 16777216),
     },
     "ntrip": {
@@ -191,29 +201,46 @@ def defaults():
     return out
 
 
+_SECRET_WORDS = ("password", "secret", "token", "key")
+
+
+def is_secret(key):
+    """A setting whose value must never appear in a message (password, wifi_password, api_key...)."""
+    k = key.lower()
+    for w in _SECRET_WORDS:
+        if k == w or k.endswith("_" + w) or (w != "key" and w in k):
+            return True
+    return False
+
+
+def _shown(key, value):
+    return "(value not shown: secret)" if is_secret(key) else repr(value)
+
+
 def _check(sec, key, value, spec, errors):
     default, kind, lo, hi = spec
     where = "%s.%s" % (sec, key)
+    got = _shown(key, value)
     if kind == "b":
         if value is not True and value is not False:
-            errors.append("%s: must be true or false, got %r" % (where, value))
+            errors.append("%s: must be true or false, got %s" % (where, got))
         return
     if kind == "s":
         if not isinstance(value, str):
-            errors.append("%s: must be a string, got %r" % (where, value))
+            errors.append("%s: must be a string, got %s" % (where, got))
         elif lo is not None and value not in lo:
-            errors.append("%s: must be one of %s, got %r" % (where, "/".join(lo), value))
+            errors.append("%s: must be one of %s, got %s" % (where, "/".join(lo), got))
         return
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        errors.append("%s: must be a number, got %r" % (where, value))
+        errors.append("%s: must be a number, got %s" % (where, got))
         return
     if kind == "f" and isinstance(value, int):
         value = float(value)
     if kind == "i" and not isinstance(value, int):
-        errors.append("%s: must be a whole number, got %r" % (where, value))
+        errors.append("%s: must be a whole number, got %s" % (where, got))
         return
     if value != value or value < lo or value > hi:  # value != value: NaN
-        errors.append("%s: %r out of range [%s, %s]" % (where, value, lo, hi))
+        errors.append("%s: %s out of range [%s, %s]" % (where, got, lo, hi))
 
 
 def validate(cfg):
@@ -250,7 +277,7 @@ def parse(text):
     """Text -> (complete config, errors). On errors the config is None."""
     try:
         cfg = json.loads(text)
-    except ValueError as e:
+    except ValueError as e:  # UnicodeError is a ValueError too
         return None, ["not valid JSON: %s" % e]
     errors = validate(cfg)
     if errors:
@@ -259,8 +286,12 @@ def parse(text):
 
 
 def _read(path):
-    with open(path) as f:
-        return f.read()
+    with open(path, "rb") as f:
+        raw = f.read()
+    try:
+        return raw.decode("utf-8")
+    except UnicodeError:
+        raise ValueError("not UTF-8 text (a character saved in another encoding?)")
 
 
 def _exists(path):
@@ -290,14 +321,29 @@ def write_atomic(path, text):
         os.rename(tmp, path)
 
 
+REJECTED = " rejected: "  # in the problem naming a file that was rejected
+
+
+def rejected(problems):
+    """True when load() rejected a configuration file (the app raises the config alarm)."""
+    for p in problems:
+        if REJECTED in p:
+            return True
+    return False
+
+
+def _load_file(path):
+    try:
+        return parse(_read(path))
+    except Exception as e:  # OSError, not UTF-8, MemoryError: a bad file, never a boot loop
+        return None, ["cannot read: %s" % (e,)]
+
+
 def load(path):
-    """Returns (config, problems). The config is always complete and valid."""
+    """Returns (config, problems). The config is always complete and valid; never raises."""
     problems = []
     if _exists(path):
-        try:
-            cfg, errors = parse(_read(path))
-        except OSError as e:
-            cfg, errors = None, ["cannot read: %s" % e]
+        cfg, errors = _load_file(path)
         if cfg is not None:
             good = _good_path(path)
             try:
@@ -307,13 +353,10 @@ def load(path):
             except OSError as e:
                 problems.append("could not keep a last-good copy: %s" % e)
             return cfg, problems
-        problems.append("%s rejected: %s" % (path, "; ".join(errors)))
+        problems.append("%s%s%s" % (path, REJECTED, "; ".join(errors)))
         good = _good_path(path)
         if _exists(good):
-            try:
-                cfg, errors = parse(_read(good))
-            except OSError as e:
-                cfg, errors = None, ["cannot read: %s" % e]
+            cfg, errors = _load_file(good)
             if cfg is not None:
                 problems.append("using the last good configuration %s" % good)
                 return cfg, problems

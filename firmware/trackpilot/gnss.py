@@ -20,14 +20,23 @@ Decoded messages land in preallocated records (`pvt`, `relpos`, `hppos`, `ack`, 
 (if set) is called after each one (the decode tool prints them from there).
 
 Epochs (see docs/GNSS.md): messages are merged into a private working Fix; an epoch closes
- 1. on the epoch's last message: NAV-EOE once the receiver has sent one, else the messages in
-    `close_on` (default NAV-PVT, which the receiver is configured to send last);
- 2. on a message carrying another iTOW (UBX) or UTC time (NMEA) than the open epoch;
- 3. when `epoch_timeout_ms` passed since its first message (checked at each feed()).
+ 1. on NAV-EOE (the receiver's own end-of-epoch marker);
+ 2. once every message kind the stream sends per epoch has arrived (`close_on=None`, automatic):
+    the set is learnt from the stream, so any message order works without extra latency. It
+    starts as {NAV-PVT}; a kind arriving late (for an epoch already closed) two epochs in a row
+    joins the set (those two epochs lost it, the next ones wait for it; a kind that is late only
+    now and then, such as 1 Hz NMEA among 5 Hz UBX, does not); two epochs in a row that closed without
+    the whole set (by the rules below) replace the set by what the last one had. With
+    `close_on` (message names) the named messages close the epoch instead;
+ 3. on a message carrying another iTOW (UBX) or UTC time (NMEA) than the open epoch;
+ 4. when `epoch_timeout_ms` (or 3/4 of the measured epoch interval, if longer) passed since its
+    first message (checked at each feed()).
 Closing copies the working Fix into the public one; feed() returns how many epochs closed.
 Messages of an epoch that already closed are not merged (`stats.late`). Within an epoch the best
 source wins: position NAV-HPPOSLLH > NAV-PVT > GGA > RMC; status NAV-PVT > GGA > RMC; velocity
 NAV-PVT > RMC/VTG; heading NAV-RELPOSNED > HDT/THS; accuracy NAV-HPPOSLLH > NAV-PVT > GST.
+The epoch interval is measured from consecutive iTOWs (UTC times for NMEA): `interval_ms` once
+two intervals in a row agree (0 until then), so the app knows the receiver's real rate.
 """
 import array
 
@@ -106,7 +115,8 @@ def crc24q(buf, a, b):
     t = _CRC24Q
     c = 0
     for i in range(a, b):
-        c = ((c << 8) & 0xFFFFFF) ^ t[(c >> 16) ^ buf[i]]
+        # mask before the shift: (c << 8) would pass 2**30 (a heap-allocated long int on the ESP32)
+        c = ((c & 0xFFFF) << 8) ^ t[(c >> 16) ^ buf[i]]
     return c
 
 
@@ -191,9 +201,10 @@ class GnssParser:
     heading_offset_deg: added to the antenna-baseline heading (NAV-RELPOSNED, HDT, THS) to give
         the bow's heading. Base antenna aft, rover antenna forward on the keel: 0. Rover antenna
         to starboard of the base: -90.
-    close_on: message names that close an epoch (tuple), or None for automatic (NAV-EOE once seen,
-        else NAV-PVT).
-    epoch_timeout_ms: close an open epoch this long after its first message (0: never).
+    close_on: message names that close an epoch (tuple), or None for automatic (the set of
+        message kinds of an epoch, learnt from the stream; NAV-EOE always closes).
+    epoch_timeout_ms: close an open epoch this long after its first message (0: never); at slow
+        rates 3/4 of the measured epoch interval if that is longer.
     skip_comments: skip gpsd-style '#' lines that start at a line start between frames (captures).
     """
 
@@ -203,7 +214,7 @@ class GnssParser:
         self._w = Fix()  # epoch being assembled
         self.heading_offset_e5 = int(round(heading_offset_deg * 100000))
         if close_on is None:
-            self._close_mask = 1 << K_NAV_PVT
+            self._close_mask = 1 << K_NAV_PVT  # learnt from the stream (docstring rule 2)
             self._auto_close = True
         else:
             m = 0
@@ -242,7 +253,14 @@ class GnssParser:
         self._last_itow = -1
         self._last_utc = -1
         self._utc_off = -1
-        self._eoe_seen = False
+        self._late_cur = 0  # kinds that came late for the last closed epoch
+        self._late_prev = 0  # ... and for the one before
+        self._short_closes = 0  # epochs in a row closed without the learnt set of kinds
+        self._prev_itow = -1  # the closed epochs' times, for the interval measurement
+        self._prev_utc = -1
+        self._cand_ms = 0
+        self.interval_ms = 0  # measured epoch interval (0: not known yet)
+        self.closed_by = 0  # 0 EOE/last message, 1 new time, 2 timeout, 3 flush (last epoch)
         self._p_pos = _P_NONE
         self._p_stat = _P_NONE
         self._p_vel = _P_NONE
@@ -291,8 +309,8 @@ class GnssParser:
         self._t_ms = t_ms
         self._done = 0
         if self._open and self.epoch_timeout_ms and \
-                ticks_diff(t_ms, self._open_t) >= self.epoch_timeout_ms:
-            self._close()
+                ticks_diff(t_ms, self._open_t) >= self._timeout_ms():
+            self._close(2)
         self.stats.bytes += n
         buf = self._buf
         i = 0
@@ -512,7 +530,7 @@ class GnssParser:
             while i < n and left:
                 c = data[i]
                 if pos < total - 3:
-                    crc = ((crc << 8) & 0xFFFFFF) ^ t[(crc >> 16) ^ c]
+                    crc = ((crc & 0xFFFF) << 8) ^ t[(crc >> 16) ^ c]  # see crc24q
                 else:
                     rx = (rx << 8) | c
                 pos += 1
@@ -629,10 +647,9 @@ class GnssParser:
             if mid == 0x61 and ln == 4:
                 self.eoe.itow_ms = _u4(b, o)
                 self._emit(K_NAV_EOE)
-                self._eoe_seen = True
-                if self._join(self.eoe.itow_ms, -1):
+                if self._join(self.eoe.itow_ms, -1, K_NAV_EOE):
                     self._w.sources |= 1 << K_NAV_EOE
-                    self._close()
+                    self._close(0)
                 return
         elif cls == 0x05 and ln == 2 and mid <= 1:
             r = self.ack
@@ -728,7 +745,11 @@ class GnssParser:
             self._emit(K_NMEA_OTHER)
 
     # ---- epoch assembly ---------------------------------------------------------------------
-    def _join(self, itow, utc):
+    def _timeout_ms(self):
+        t = self.interval_ms * 3 // 4
+        return t if t > self.epoch_timeout_ms else self.epoch_timeout_ms
+
+    def _join(self, itow, utc, kind):
         """Place a message of (itow or -1, utc_ms or -1) into the open epoch, opening or closing
         epochs as needed; False if it belongs to an epoch already closed."""
         # the iTOW decides where a message has one (NAV-PVT carries both), else the UTC time
@@ -738,6 +759,10 @@ class GnssParser:
             late = utc >= 0 and utc == self._last_utc
         if late:
             self.stats.late += 1
+            bit = 1 << kind
+            if self._auto_close and self._late_prev & bit:
+                self._close_mask |= bit  # late twice in a row: the stream sends it last
+            self._late_cur |= bit
             return False
         w = self._w
         if self._open:
@@ -746,7 +771,7 @@ class GnssParser:
             else:
                 other = utc >= 0 and self._w_utc >= 0 and utc != self._w_utc
             if other:
-                self._close()
+                self._close(1)
         if not self._open:
             w.clear()
             w.t_ms = self._t_ms
@@ -766,16 +791,53 @@ class GnssParser:
         return True
 
     def _closing(self, kind):
-        self._w.sources |= 1 << kind
-        if self._auto_close and self._eoe_seen:
-            return
-        if self._close_mask & (1 << kind):
-            self._close()
+        src = self._w.sources | (1 << kind)
+        self._w.sources = src
+        if self._auto_close:
+            m = self._close_mask
+            if src & m == m:
+                self._close(0)
+        elif self._close_mask & (1 << kind):
+            self._close(0)
 
-    def _close(self):
+    def _learn(self, by):
+        """After an epoch closed by a new time, timeout or flush: did it have the whole set?"""
+        src = self._w.sources & ~(1 << K_NAV_EOE)
+        m = self._close_mask
+        if by == 0 or src & m == m or not src:
+            self._short_closes = 0
+            return
+        self._short_closes += 1
+        if self._short_closes >= 2:  # the stream changed: learn what it sends now
+            self._close_mask = src
+            self._short_closes = 0
+
+    def _measure(self, itow, utc):
+        d = 0
+        if itow >= 0 and self._prev_itow >= 0:
+            d = (itow - self._prev_itow) % 604800000
+        elif itow < 0 and utc >= 0 and self._prev_utc >= 0:
+            d = (utc - self._prev_utc) % 86400000
+        if itow >= 0:
+            self._prev_itow = itow
+        if utc >= 0:
+            self._prev_utc = utc
+        if 0 < d <= 10000:
+            c = self._cand_ms
+            if -5 <= d - c <= 5:  # two intervals in a row agree: that is the rate
+                self.interval_ms = d
+            self._cand_ms = d
+
+    def _close(self, by=0):
         if not self._open:
             return
         w = self._w
+        self.closed_by = by
+        self._late_prev = self._late_cur
+        self._late_cur = 0
+        if self._auto_close and by:
+            self._learn(by)
+        self._measure(w.itow_ms, self._w_utc)
         # the epoch's floats, made once here (5 heap objects at most)
         if self._bad_pos:
             w.pos_valid = False
@@ -822,7 +884,7 @@ class GnssParser:
         """Close the open epoch now (end of a capture, or the app's own timeout); returns 0/1."""
         self._t_ms = t_ms
         self._done = 0
-        self._close()
+        self._close(3)
         return self._done
 
     def _set_pos(self, prio, lat_e7, lon_e7, lat_hp, lon_hp, height_mm):
@@ -872,7 +934,7 @@ class GnssParser:
         utc = self._pvt_utc(r)
         if utc >= 0:  # iTOW - UTC (mod one day): lets iTOW-only messages meet NMEA times
             self._utc_off = (r.itow_ms - utc) % 86400000
-        if not self._join(r.itow_ms, utc):
+        if not self._join(r.itow_ms, utc, K_NAV_PVT):
             return
         w = self._w
         ok = (r.flags & 1) and 2 <= r.fix_type <= 4 and not (r.flags3 & 1)
@@ -892,7 +954,7 @@ class GnssParser:
         self._closing(K_NAV_PVT)
 
     def _apply_relpos(self, r):
-        if not self._join(r.itow_ms, -1):
+        if not self._join(r.itow_ms, -1, K_NAV_RELPOSNED):
             return
         fl = r.flags
         valid = (fl & 0x105) == 0x105  # gnssFixOK, relPosValid, relPosHeadingValid
@@ -904,20 +966,22 @@ class GnssParser:
         self._closing(K_NAV_RELPOSNED)
 
     def _apply_hppos(self, r):
-        if not self._join(r.itow_ms, -1):
+        if not self._join(r.itow_ms, -1, K_NAV_HPPOSLLH):
             return
-        if not r.flags & 1:  # invalidLlh clear
+        # invalidLlh clear, and the high-precision parts in their range (-99..99, 1e-9 deg):
+        # anything else is a corrupt frame that would move the position by up to 1.3 e-7 deg
+        if not r.flags & 1 and -99 <= r.lat_hp <= 99 and -99 <= r.lon_hp <= 99:
             self._set_pos(_P_HP, r.lat_e7, r.lon_e7, r.lat_hp, r.lon_hp, r.height_mm)
             if _P_HP >= self._p_acc:
                 self._p_acc = _P_HP
                 self._hacc_01mm = r.h_acc_01mm
         self._closing(K_NAV_HPPOSLLH)
 
-    def _utc_join(self, utc):
-        return self._join(-1, utc if utc is not None else -1)
+    def _utc_join(self, utc, kind):
+        return self._join(-1, utc if utc is not None else -1, kind)
 
     def _apply_gga(self, r):
-        if not self._utc_join(r.utc_ms):
+        if not self._utc_join(r.utc_ms, K_GGA):
             return
         q = r.quality
         if q is None:
@@ -938,7 +1002,7 @@ class GnssParser:
         self._closing(K_GGA)
 
     def _apply_rmc(self, r):
-        if not self._utc_join(r.utc_ms):
+        if not self._utc_join(r.utc_ms, K_RMC):
             return
         ok = r.status == 0x41 and r.lat_e7 is not None and r.lon_e7 is not None
         m = r.pos_mode
@@ -957,7 +1021,7 @@ class GnssParser:
 
     def _apply_vtg(self, r):
         # VTG carries no time: it joins the open epoch (or opens one)
-        if not self._join(-1, -1):
+        if not self._join(-1, -1, K_VTG):
             return
         ok = r.cog_t_e3 is not None and r.pos_mode != 0x4E
         cog = r.cog_t_e3 if r.cog_t_e3 is not None else 0
@@ -968,7 +1032,7 @@ class GnssParser:
         self._closing(K_VTG)
 
     def _apply_gst(self, r):
-        if not self._utc_join(r.utc_ms):
+        if not self._utc_join(r.utc_ms, K_GST):
             return
         if r.sd_lat_e3 is not None and r.sd_lon_e3 is not None and _P_GGA >= self._p_acc:
             self._p_acc = _P_GGA
@@ -978,7 +1042,7 @@ class GnssParser:
         self._closing(K_GST)
 
     def _apply_heading(self, heading_e3, valid, kind):
-        if not self._join(-1, -1):
+        if not self._join(-1, -1, kind):
             return
         if _P_GGA >= self._p_hdg:
             self._p_hdg = _P_GGA

@@ -149,6 +149,7 @@ class LosLaw:
         "heading_tc_s": (1.5, "s", 0.2, 10.0, "time constant of heading response (boat + pilot)"),
         "lookahead_min_m": (6.0, "m", 1.0, 50.0, "lookahead clamp, low (gain x T' L: slow boat)"),
         "lookahead_max_m": (20.0, "m", 2.0, 200.0, "lookahead clamp, high"),
+        "xte_lead_s": (0.0, "s", 0.0, 20.0, "damping: steer on the xte predicted this far ahead (0 = off)"),
         "preview_s": (3.5, "s", 0.0, 10.0, "preview time: path turn this far ahead is fed forward"),
         "crab_use": (1.0, "1", 0.0, 1.0, "weight of the measured crab angle (0 = off)"),
         "crab_tc_s": (2.0, "s", 0.2, 120.0, "low-pass time constant of the measured crab"),
@@ -341,8 +342,14 @@ class LosLaw:
             self.beta_hat_rad += dt_s * self.alos_gain * la / math.sqrt(la * la + y * y) * y
             lim = self.alos_max_deg * _RAD
             self.beta_hat_rad = _clip(self.beta_hat_rad, -lim, lim)
-        course = prog.leg_bearing_deg + (tan_rad + prev_rad - math.atan2(y, la)) / _RAD
         crab = self.crab_f_deg * self.crab_use if self.crab_ok else 0.0
+        # damping: the xte predicted xte_lead_s ahead from the course made good (heading + the
+        # filtered crab: quieter than the raw COG), so the heading loop's lag cannot ring
+        y_lead = y
+        if self.xte_lead_s > 0.0 and self.crab_ok:
+            chi_rad = wrap180(fix.heading_deg + self.crab_f_deg - prog.leg_bearing_deg) * _RAD - tan_rad
+            y_lead = y + self.xte_lead_s * u * math.sin(chi_rad)
+        course = prog.leg_bearing_deg + (tan_rad + prev_rad - math.atan2(y_lead, la)) / _RAD
         cmd = course - crab - self.beta_hat_rad / _RAD
         rel = wrap180(cmd - fix.heading_deg)
         out.clipped = rel > self.clip_deg or rel < -self.clip_deg

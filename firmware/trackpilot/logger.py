@@ -8,7 +8,12 @@ Flushing: records collect in a preallocated RAM buffer; `tick(t_ms)` writes and 
 `flush_ms` (littlefs keeps nothing since the last flush on power loss), so at most about that much
 is lost. A full buffer is written at once.
 
-Flash space (checked at every flush and rotation, `free_fn()` -> bytes):
+Flash space (checked at every new part and every `space_check_ms`, `free_fn()` -> bytes). The
+retention budget (docs/LOG_FORMAT.md): logs may fill the filesystem down to a reserve of
+low_water_bytes (config log.min_free_bytes), at most 1/8 of the filesystem when statvfs gives its
+size, so a small filesystem is not all reserve. A new part does not reserve its size up front
+(that deleted every older session at the first boot on a small filesystem); the periodic check
+deletes as the part grows.
   1. free < low_water_bytes: delete whole older sessions, oldest first, never the current one;
   2. still free < control_reserve_bytes: drop control records (counted in dropped_control),
      keep writing events;
@@ -17,7 +22,7 @@ Flash space (checked at every flush and rotation, `free_fn()` -> bytes):
 Nothing here raises to the caller once the logger is built.
 
 Usage:
-    lg = Logger("/log", fw_version="0.3", max_file_bytes=256 * 1024)
+    lg = Logger("/log", fw_version="0.3", max_file_bytes=256 * 1024, statvfs=os.statvfs)
     lg.start(t_ms, reset_cause="power_on", config_hash="a1b2c3", track_id="loop")
     lg.track(track)                      # a track.Track, or a list of waypoints and an id
     rec = lg.rec                         # a preallocated logfmt.ControlRecord
@@ -53,12 +58,12 @@ def parse_name(name):
 
 
 class Logger:
-    # Tunables (bytes, ms); the defaults fit 10 h of 5 Hz logging in 6 MB with room to spare.
+    # Tunables (bytes, ms): the same defaults as config "log" (docs/LOG_FORMAT.md).
     max_file_bytes = 256 * 1024
     buf_bytes = 4096
     flush_ms = 1000
     space_check_ms = 10000  # statvfs walks littlefs: not every flush
-    low_water_bytes = 512 * 1024  # below this, delete older sessions
+    low_water_bytes = 256 * 1024  # below this, delete older sessions (at most 1/8 of the fs)
     control_reserve_bytes = 64 * 1024  # below this, drop control records, keep events
     event_reserve_bytes = 8 * 1024  # below this, drop everything
 
@@ -68,6 +73,8 @@ class Logger:
         # min_free_bytes: config log.min_free_bytes = low_water_bytes (older sessions go below it).
         if min_free_bytes is not None:
             self.low_water_bytes = min_free_bytes
+        self._low_water_set = self.low_water_bytes  # before the 1/8-of-the-filesystem cap
+        self.fs_bytes = None  # filesystem size, when statvfs tells it
         self._statvfs = statvfs
         for k in tunables:
             if not hasattr(Logger, k):
@@ -128,6 +135,8 @@ class Logger:
             if self._free_fn:
                 return self._free_fn()
             st = (self._statvfs or os.statvfs)(self.root)
+            self.fs_bytes = st[1] * st[2]  # f_frsize * f_blocks
+            self.low_water_bytes = min(self._low_water_set, self.fs_bytes // 8)
             return st[1] * st[4]  # f_frsize * f_bavail
         except Exception:  # no statvfs on this port, or the callback failed: unknown
             return 1 << 30  # let the writes find out (ENOSPC is handled)
@@ -211,7 +220,7 @@ class Logger:
         self._close_file()
         self.part += 1
         self.path = self._path(self.session, self.part)
-        self.check_space(self.max_file_bytes)
+        self.check_space()  # no room reserved for the whole part: see the module doc
         try:
             self._f = self._open(self.path, "ab")
         except OSError as e:

@@ -11,7 +11,8 @@ differs):
     STANDBY (HMI/remote/host)          STANDBY             send Standby     release (or slow RPM)
     person keys the pilot / unasked    STANDBY + alarm     leave as set     hold, capped at slow
     E-stop input                       ESTOP (latched)     send Standby     0 RPM
-    GNSS/RTK/heading bad < hold time   AUTO (degraded)     hold course      slow
+    GNSS bad < hold time, dead reckoning AUTO (dead-reckoning) steer on DR   slow
+    GNSS bad < hold time, no DR        AUTO (degraded)     hold course      slow
     ... beyond hold time               ALARM               keeps course     slow
     pilot unrecoverable, motor lost    ALARM               keeps course     slow
     SeaTalk cannot send (seatalk_lost) ALARM               keeps course     slow
@@ -91,12 +92,13 @@ class ModeMachine:
 
     def __init__(self, cfg=None):
         cfg = cfg or {}
-        self.gnss_hold_ms = int(cfg.get("gnss_hold_s", 10) * 1000)
+        self.gnss_hold_ms = int(cfg.get("gnss_hold_s", 30) * 1000)
         self.xte_alarm_m = cfg.get("xte_alarm_m", 5.0)
         self.on_arrival = cfg.get("on_arrival", "standby")  # or "hold"
         self.release_motor = cfg.get("motor_release_on_standby", True)
         self.mode = STANDBY
-        self.degraded = False  # AUTO but holding course without GNSS guidance
+        self.degraded = False  # AUTO without steerable GNSS: dead reckoning or holding course
+        self.dead_reckoning = False  # degraded, but steering on the dead-reckoned position
         self.recovering = False  # AUTO, pilot hang recovery in progress
         self.holding = False  # AUTO after arrival with on_arrival == "hold"
         self.pilot = PILOT_LEAVE  # boot: leave the pilot exactly as found
@@ -122,6 +124,7 @@ class ModeMachine:
         self.mode_changes += 1
         if mode != AUTO:
             self.degraded = False
+            self.dead_reckoning = False
             self.recovering = False
             self.holding = False
             self.gnss_bad_since = None
@@ -151,7 +154,7 @@ class ModeMachine:
         s = MODE_NAMES[self.mode]
         if self.mode == AUTO:
             if self.degraded:
-                s += "(degraded)"
+                s += "(dead-reckoning)" if self.dead_reckoning else "(degraded)"
             elif self.recovering:
                 s += "(recovering)"
             elif self.holding:
@@ -169,7 +172,7 @@ class ModeMachine:
             return False, refusal
         was = self.mode
         self._set_mode(AUTO, "engaged by a person (%s)" % source, t_ms)
-        self.degraded = self.recovering = self.holding = False
+        self.degraded = self.recovering = self.holding = self.dead_reckoning = False
         self.gnss_bad_since = None
         self.pilot = PILOT_STEER
         self.motor = MOTOR_TRACK
@@ -234,13 +237,18 @@ class ModeMachine:
         else:
             self._log("INFO", "pilot key/mode change while %s: %s" % (MODE_NAMES[self.mode], reason))
 
-    def gnss_quality(self, t_ms, ok, reason=""):
-        """Once per control epoch (and on GNSS timeout): is the fix good enough to steer by?"""
+    def gnss_quality(self, t_ms, ok, reason="", dr=False):
+        """Once per control epoch (and on a GNSS gap, by timer): is the fix good enough to steer
+        by? `dr`: a dead-reckoned position is available (docs/MODES.md "GNSS gaps"). Inside the
+        hold time the same AUTO goes on: steering on the dead-reckoned position (or holding
+        course without one) at slow RPM, and guidance resumes by itself on a good fix. This is
+        not an engagement: it only continues what a person engaged. Past the hold time: ALARM."""
         if ok:
             if self.gnss_bad_since is not None:
                 self.gnss_bad_since = None
                 if self.mode == AUTO and self.degraded:
                     self.degraded = False
+                    self.dead_reckoning = False
                     self.pilot = PILOT_STEER
                     self.motor = MOTOR_TRACK
                     self._log("MODE", "AUTO: GNSS good again, guidance resumed")
@@ -251,9 +259,12 @@ class ModeMachine:
             self.gnss_reason = reason
             if self.mode == AUTO:
                 self.degraded = True
-                self.pilot = PILOT_HOLD
+                self.dead_reckoning = dr
+                self.pilot = PILOT_STEER if dr else PILOT_HOLD
                 self.motor = MOTOR_SLOW
-                self._log("MODE", "AUTO(degraded): %s; holding course" % reason)
+                self._log("MODE", "AUTO(%s): %s; %s" % (
+                    "dead-reckoning" if dr else "degraded", reason,
+                    "steering on the dead-reckoned position, slow" if dr else "holding course, slow"))
             self.raise_alarm(AL_GNSS, reason)
             return
         if self.mode == AUTO and self.degraded:
@@ -262,6 +273,12 @@ class ModeMachine:
                 self.raise_alarm(AL_GNSS_TIMEOUT, reason)
                 self.pilot = PILOT_HOLD  # the pilot keeps its last course in Auto
                 self.motor = MOTOR_SLOW
+            elif dr != self.dead_reckoning and not self.recovering:
+                self.dead_reckoning = dr
+                self.pilot = PILOT_STEER if dr else PILOT_HOLD
+                self._log("MODE", "AUTO(%s): %s" % (
+                    "dead-reckoning" if dr else "degraded",
+                    "dead reckoning available" if dr else "no dead reckoning (%s); holding course" % reason))
 
     def pilot_hang(self, t_ms, reason):
         if self.mode == AUTO and not self.recovering:
@@ -275,7 +292,7 @@ class ModeMachine:
         if self.recovering:
             self.recovering = False
             if self.mode == AUTO:
-                self.pilot = PILOT_HOLD if self.degraded else PILOT_STEER
+                self.pilot = PILOT_HOLD if self.degraded and not self.dead_reckoning else PILOT_STEER
                 self.motor = MOTOR_SLOW if self.degraded else MOTOR_TRACK
                 self._log("MODE", "AUTO: pilot recovered")
         self.clear_alarm(AL_PILOT_HANG, "recovered")
@@ -308,12 +325,15 @@ class ModeMachine:
             self.motor = MOTOR_SLOW
         self.raise_alarm(AL_SEATALK, reason)
 
-    def xte(self, t_ms, xte_m):
+    def xte(self, t_ms, xte_m, tolerance=1.0):
+        """tolerance: factor on the alarm limit (RTK float positions are good to decimetres with
+        jumps of up to half a metre, so the app widens it there)."""
         if self.mode != AUTO or self.degraded:
             return
-        if abs(xte_m) > self.xte_alarm_m:
-            self.raise_alarm(AL_XTE, "cross-track error %.1f m beyond %.1f m" % (xte_m, self.xte_alarm_m))
-        elif self.alarms & AL_XTE and abs(xte_m) < 0.8 * self.xte_alarm_m:
+        lim = self.xte_alarm_m * tolerance
+        if abs(xte_m) > lim:
+            self.raise_alarm(AL_XTE, "cross-track error %.1f m beyond %.1f m" % (xte_m, lim))
+        elif self.alarms & AL_XTE and abs(xte_m) < 0.8 * lim:
             self.clear_alarm(AL_XTE, "back within limit")
 
     def arrived(self, t_ms, reason):

@@ -6,6 +6,12 @@ correction. The shell (`run_client`) is an asyncio TCP client that reconnects wi
 forwards the frames to the GNSS UART; it sends the boat's GGA every `gga_interval_s` for network
 (VRS) mountpoints.
 
+Casters answer in three ways, all accepted: NTRIP 1.0 `ICY 200 OK` (often with no blank line after
+it, as RTKLIB also accepts), HTTP/1.x 200 with a plain stream, and NTRIP 2.0 HTTP/1.1 200 with
+`Transfer-Encoding: chunked` (the chunk framing is removed before the RTCM framer). Whatever a
+caster sends (non-UTF-8 status text, odd chunk sizes) ends at most this connection with a logged
+reason; run_client catches every error per connection and reconnects with back-off.
+
 Usage:
     s = NtripSession("caster.example", 2101, "MOUNT", "user", "pass")
     sock.write(s.request())
@@ -22,6 +28,14 @@ except ImportError:  # pragma: no cover
     asyncio = None
 
 _MAX_FRAME = 1029  # 3 header + 1023 payload + 3 CRC
+_MAX_HEADER = 4096
+_MAX_CHUNK_LINE = 80  # hex size plus chunk extensions
+
+
+def printable(raw, n=80):
+    """Caster text for the log: ASCII only (the caster may send any bytes; MicroPython's decode
+    has no errors="replace")."""
+    return "".join(chr(b) if 32 <= b < 127 else "?" for b in raw[:n])
 
 
 def crc24q(data, start, end):
@@ -49,6 +63,10 @@ class NtripSession:
         self.error = ""
         self._hdr = bytearray()
         self._buf = bytearray()
+        self.chunked = False
+        self._chunk_left = -1  # bytes left in the current chunk; -1: reading a size line
+        self._chunk_line = bytearray()
+        self._chunk_crlf = False  # the CRLF after a chunk's data is still to come
         self.frames = 0
         self.bad_crc = 0
         self.skipped = 0
@@ -69,23 +87,80 @@ class NtripSession:
 
     def _header(self, data):
         self._hdr.extend(data)
-        end = self._hdr.find(b"\r\n\r\n")
+        hdr = self._hdr
+        eol = hdr.find(b"\r\n")
+        if eol >= 0 and hdr.startswith(b"ICY 200"):
+            # NTRIP 1.0: the status line alone, a blank line after it or not
+            rest = bytes(hdr[eol + 2 :])
+            if rest.startswith(b"\r\n"):
+                rest = rest[2:]
+            self._hdr = bytearray()
+            self.header_done = True
+            return rest
+        end = hdr.find(b"\r\n\r\n")
         if end < 0:
-            if len(self._hdr) > 4096:
-                self.error = "caster answer without end of header"
+            if len(hdr) > _MAX_HEADER:
+                self.error = "caster answer without end of header: %s" % printable(hdr)
             return b""
-        head = bytes(self._hdr[:end])
-        rest = bytes(self._hdr[end + 4 :])
+        head = bytes(hdr[:end])
+        rest = bytes(hdr[end + 4 :])
         self._hdr = bytearray()
-        first = head.split(b"\r\n")[0]
-        if first.startswith(b"ICY 200") or (first.startswith(b"HTTP/1.") and b" 200" in first[:13]):
+        lines = head.split(b"\r\n")
+        first = lines[0]
+        if first.startswith(b"HTTP/1.") and b" 200" in first[:13]:
+            for line in lines[1:]:
+                name, _, value = line.partition(b":")
+                if name.strip().lower() == b"transfer-encoding" and b"chunked" in value.lower():
+                    self.chunked = True
             self.header_done = True
             return rest
         if first.startswith(b"SOURCETABLE"):
             self.error = "mountpoint %r not found (caster sent its source table)" % self.mountpoint
         else:
-            self.error = "caster refused: %s" % first.decode()
+            self.error = "caster refused: %s" % printable(first)
         return b""
+
+    def _dechunk(self, data):
+        """HTTP/1.1 chunked transfer: the payload bytes of `data` (sizes and CRLFs removed)."""
+        out = bytearray()
+        i = 0
+        n = len(data)
+        while i < n and not self.error:
+            if self._chunk_left > 0:  # inside a chunk's data
+                take = min(self._chunk_left, n - i)
+                out.extend(data[i : i + take])
+                i += take
+                self._chunk_left -= take
+                if self._chunk_left == 0:
+                    self._chunk_crlf = True
+                    self._chunk_left = -1
+                continue
+            b = data[i]
+            i += 1
+            if self._chunk_crlf:  # the CR LF that ends a chunk's data
+                if b == 0x0A:
+                    self._chunk_crlf = False
+                elif b != 0x0D:
+                    self.error = "bad chunked transfer: no CRLF after a chunk"
+                continue
+            if b != 0x0A:
+                if len(self._chunk_line) >= _MAX_CHUNK_LINE:
+                    self.error = "bad chunked transfer: chunk size line too long"
+                else:
+                    self._chunk_line.append(b)
+                continue
+            line = bytes(self._chunk_line).split(b";")[0].strip()
+            self._chunk_line = bytearray()
+            try:
+                size = int(printable(line), 16)
+            except ValueError:
+                self.error = "bad chunked transfer: chunk size %r" % printable(line)
+                break
+            if size == 0:
+                self.error = "caster ended the stream"
+                break
+            self._chunk_left = size
+        return bytes(out)
 
     def feed(self, data, t_ms):
         """Bytes from the caster -> list of whole RTCM3 frames (bytes) to forward."""
@@ -95,6 +170,8 @@ class NtripSession:
             data = self._header(data)
             if not data:
                 return []
+        if self.chunked:
+            data = self._dechunk(data)
         buf = self._buf
         buf.extend(data)
         out = []
@@ -140,12 +217,14 @@ class NtripSession:
 async def run_client(cfg, forward, clock, gga=None, events=None, stop=None):
     """Connect, forward frames, reconnect with back-off (2 s doubling to 60 s). `forward(frame)`
     writes to the GNSS UART; `gga()` returns the current GGA sentence (bytes) or None; `events`
-    is a callable(kind, text) for the log. Returns when `stop` (an asyncio.Event) is set."""
+    is a callable(kind, text) for the log. Returns when `stop` (an asyncio.Event) is set; never
+    because of what a caster sent (any error ends only that connection, logged)."""
     delay_s = 2
     session = None
     while stop is None or not stop.is_set():
         session = NtripSession(cfg["host"], cfg["port"], cfg["mountpoint"], cfg["user"], cfg["password"])
         _state[0] = session
+        writer = None
         try:
             reader, writer = await asyncio.open_connection(cfg["host"], cfg["port"])
             writer.write(session.request())
@@ -178,10 +257,17 @@ async def run_client(cfg, forward, clock, gga=None, events=None, stop=None):
                         writer.write(sentence)
                         await writer.drain()
                     last_gga = t
-            writer.close()
         except OSError as e:
             if events:
                 events("NTRIP", "connection failed: %s" % e)
+        except Exception as e:  # noqa: BLE001 -- a bug or an odd caster: log it, reconnect
+            if events:
+                events("NTRIP", "connection ended by an error: %s: %s" % (type(e).__name__, e))
+        if writer is not None:
+            try:
+                writer.close()
+            except Exception:  # noqa: BLE001 -- closing a broken socket
+                pass
         if stop is not None and stop.is_set():
             break
         await asyncio.sleep(delay_s)

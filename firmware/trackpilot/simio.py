@@ -34,9 +34,6 @@ _KIND_REPORT = 0x52  # 'R'
 _HDR = "<BBIIB"
 _HDR_LEN = 11
 _NO_WAKE = 0xFFFFFFFF
-# asyncio's own clock in simulation: far above any real unix tick value so that tasks the C
-# scheduler pushes with the real clock ("run now") always sort as due.
-_ASYNCIO_BASE = 1 << 44
 
 _POLL = 3  # MP_STREAM_POLL
 _POLLIN = 1
@@ -125,6 +122,8 @@ class SimLink:
         self.streams = {}
         self.closed = False
         self.reports = 0
+        self._aio_ticks = 0  # asyncio's virtual clock (in asyncio's own tick period), see install()
+        self._aio_ticks_add = None
 
     def stream(self, dev):
         s = self.streams.get(dev)
@@ -138,7 +137,7 @@ class SimLink:
         return (self.tick_base + self.t_ms) & TICKS_MASK
 
     def _asyncio_ticks(self):
-        return _ASYNCIO_BASE + self.t_ms
+        return self._aio_ticks
 
     # ------------------------------------------------------------------ protocol
     def _read_exact(self, n):
@@ -177,6 +176,8 @@ class SimLink:
             raise ValueError("sim protocol: bad frame header %r" % hdr)
         if t_ms < self.t_ms:
             raise ValueError("sim protocol: time went back from %d to %d" % (self.t_ms, t_ms))
+        if self._aio_ticks_add is not None:
+            self._aio_ticks = self._aio_ticks_add(self._aio_ticks, t_ms - self.t_ms)
         self.t_ms = t_ms
         for _ in range(n):
             ch = self._read_exact(3)
@@ -196,6 +197,14 @@ class SimLink:
         import asyncio
         from asyncio import core
 
+        # asyncio's clock becomes virtual, advanced step by step with asyncio's own ticks_add, so it
+        # wraps at asyncio's period (2**62 or 2**30 with the unix port's C scheduler, 2**29 with the
+        # pure-Python port) and stays a small int on a 32-bit build. It starts a quarter period
+        # ahead of the real clock, which a C scheduler still uses for tasks it pushes as "run now":
+        # those then sort as due (for up to a quarter period of drift between the two clocks).
+        quarter = (core.ticks_add(0, -1) >> 2) + 1
+        self._aio_ticks = core.ticks_add(core.ticks(), quarter)
+        self._aio_ticks_add = core.ticks_add
         core.ticks = self._asyncio_ticks
         q = core._io_queue
         link = self

@@ -5,6 +5,7 @@ Pure logic: datagrams and t_ms in, keystroke datagrams (through the injected `se
 Usage (the shell wires it to a StLink):
     pilot = St2000(send=link.send, sender_id=1)
     link.on_datagram = pilot.on_datagram          # every framed non-echo datagram
+    link.on_sent = pilot.on_sent                  # each of our datagrams, once its echo is complete
     pilot.engage(t_ms)        # sends Auto only now: never at boot, never by itself
     pilot.steer_to(-4.0, t_ms)  # locked course := pilot compass - 4 deg, by +-10/+-1 keystrokes
     pilot.standby(t_ms)
@@ -15,15 +16,28 @@ Usage (the shell wires it to a StLink):
 
 Control states (`state`): IDLE (not commanding; the pilot is left as found), ENGAGING, ENGAGED
 (commanding), STANDING_BY, RECOVERING, TAKEN_OVER (a person acted; no keys until engage()),
-FAILED (unrecoverable hang; no keys until engage()).
+FAILED (unrecoverable hang; no keys until engage()), HOLDING (the firmware is in ALARM: the pilot
+keeps its course in Auto; nothing is sent, no hang check, no recovery; a person's key or mode
+change is still a takeover).
+
+The driver's rule: keys go out on its own (course steps, hang recovery, re-sends of an asked mode)
+only in ENGAGING/ENGAGED/RECOVERING/STANDING_BY, i.e. while the firmware is in AUTO or has just
+been asked for Standby. The one exception is the takeover race below.
 
 Keystroke stepping: one key at a time; the next only after the previous one is confirmed (the
 locked course in a later 0x84 equals the course expected after it) or timed out
 (`confirm_timeout_ms`), and at least `key_interval_ms` after the previous key. +-10 is used when
 |error| >= `ten_from_deg` (default 7: at most 3 deg of overshoot; 17 deg takes 5 keys, not 8).
 
-A person taking over: any keystroke that is not our own echo (another sender, or our sender id
-with a key we did not just send) -> EV_TAKEOVER at once (0x86 carries its own check byte). A mode
+A person taking over: any keystroke datagram that reaches on_datagram -> EV_TAKEOVER at once
+(0x86 carries its own check byte). Our own keystrokes never get here: StLink consumes their echo
+byte by byte (it writes a byte only after the previous one's echo), so a hand remote with our
+sender id still wins. Sender 0 (the pilot's own keypad) is refused as our id by the config schema.
+The takeover race: our Auto (recovery or engage) may reach the pilot just after a person's
+Standby (the pilot acts on its own keypad at once and tells the bus later, so bus order does not
+say which came first). When the pilot goes to Auto unasked after a takeover, our last key was Auto
+(its echo complete within `mode_confirm_ms`, see on_sent) and the person's key was not Auto, it is
+answered with Standby and EV_OWN_AUTO_UNDONE: a person always wins. A mode
 change we did not ask for, while commanding, is believed only when the next 0x84/0x95 shows the
 same mode (SeaTalk has no checksum: one flipped bit in the mode byte must not end AUTO). Until then
 the datagram is set aside and no keys are sent, so a person still wins within one status period.
@@ -51,7 +65,9 @@ STANDING_BY = const(3)
 RECOVERING = const(4)
 TAKEN_OVER = const(5)
 FAILED = const(6)
-STATE_NAMES = ("idle", "engaging", "engaged", "standing_by", "recovering", "taken_over", "failed")
+HOLDING = const(7)
+STATE_NAMES = ("idle", "engaging", "engaged", "standing_by", "recovering", "taken_over", "failed",
+               "holding")
 
 EV_MODE = "MODE"  # the pilot's mode changed (reason says asked/unasked)
 EV_ENGAGED = "ENGAGED"
@@ -67,6 +83,7 @@ EV_RECOVERED = "RECOVERED"
 EV_UNRECOVERABLE = "UNRECOVERABLE"
 EV_STATUS_LOST = "STATUS_LOST"
 EV_STATUS_BACK = "STATUS_BACK"
+EV_OWN_AUTO_UNDONE = "OWN_AUTO_UNDONE"  # our Auto landed after a takeover: Standby sent back
 
 _R_STANDBY_SEND = const(0)
 _R_STANDBY_WAIT = const(1)
@@ -80,8 +97,7 @@ class St2000:
                  status_timeout_ms=3500, hang_unconfirmed_n=3, converge_err_deg=15.0,
                  converge_window_ms=15000, converge_progress_deg=8.0, converge_min_speed_mps=0.8,
                  recover_retries=3,
-                 recover_pause_ms=1000, ten_from_deg=7.0, tolerance_deg=0.5, echo_window_ms=1000,
-                 events_len=32):
+                 recover_pause_ms=1000, ten_from_deg=7.0, tolerance_deg=0.5, events_len=32):
         if isinstance(odd_rule, str):
             odd_rule = st.ODD_KNAUF if odd_rule == "knauf" else st.ODD_DOTNET
         self.send = send
@@ -101,7 +117,6 @@ class St2000:
         self.recover_pause_ms = recover_pause_ms
         self.ten_from_deg = ten_from_deg
         self.tolerance_deg = tolerance_deg
-        self.echo_window_ms = echo_window_ms
         self._evmax = events_len
         self._ev = []
         # what the pilot reports (None until seen)
@@ -127,8 +142,9 @@ class St2000:
         self._key_t = 0
         self._key_expect = 0.0
         self._last_key_t = None
-        self._sent_key = None  # last keystroke sent (to recognise our own echo)
+        self._sent_key = None  # our last keystroke on the bus (on_sent), for the takeover race
         self._sent_key_t = 0
+        self._person_key = None  # the last keystroke not ours
         self._unconf = 0
         self._conv_t0 = None  # start of the convergence window (None: not armed)
         self._conv_h0 = 0.0  # heading at its start
@@ -182,16 +198,25 @@ class St2000:
     def commanding(self):
         return self.state == ENGAGING or self.state == ENGAGED or self.state == RECOVERING
 
+    def watching(self):
+        """A person's key or an unasked mode change ends what we do (commanding or holding)."""
+        return self.commanding() or self.state == HOLDING
+
     # ---- sending ----
     def _send_key(self, key, t_ms):
         if not self.send(st.encode_86(key, self.sender_id)):
             self.send_blocked += 1
             return False
         self.keys_sent += 1
-        self._sent_key = key
-        self._sent_key_t = t_ms
         self._last_key_t = t_ms
         return True
+
+    def on_sent(self, dg, t_ms):
+        """The link saw the whole echo of one of our datagrams (StLink.on_sent): it is on the bus
+        now, in order with the datagrams delivered to on_datagram."""
+        if len(dg) == 4 and dg[0] == 0x86:
+            self._sent_key = dg[2]
+            self._sent_key_t = t_ms
 
     def _ask_mode(self, mode, t_ms):
         self._want = mode
@@ -214,6 +239,7 @@ class St2000:
             self._event(EV_ENGAGE_FAILED, t_ms, "no status from the pilot")
             return False
         self._reset_hang()
+        self._person_key = None
         if self.mode == st.MODE_AUTO:
             self.state = ENGAGED
             self._want = None
@@ -239,6 +265,17 @@ class St2000:
             return
         self.state = STANDING_BY
         self._ask_mode(st.MODE_STANDBY, t_ms)
+
+    def hold(self, t_ms, reason="alarm"):
+        """The firmware is in ALARM: leave the pilot in Auto on its course and send nothing more
+        (no steps, no hang recovery, no re-sends); a person's key is still a takeover."""
+        if not self.commanding():
+            return  # idle, taken over or failed: already sending nothing
+        self.state = HOLDING
+        self._want = None
+        self._key = None
+        self.target_course_deg = None
+        self._event(EV_MODE, t_ms, "driver holding, sends nothing: " + reason)
 
     def let_go(self, t_ms, reason="released"):
         """Stop commanding without sending anything (leave the pilot as it is)."""
@@ -303,7 +340,7 @@ class St2000:
         commanding: the whole datagram is then held back (it may be corrupt) and keys stop
         until the next status confirms or contradicts it."""
         old = self.mode
-        if old is None or new == old or new == self._want or not self.commanding():
+        if old is None or new == old or new == self._want or not self.watching():
             if self._mode_suspect is not None and new == old:
                 self.mode_glitches += 1
                 self._event(EV_MODE, t_ms, "status read %s once, not repeated: ignored (bus noise?)" % (
@@ -320,12 +357,11 @@ class St2000:
         return True
 
     def _on_key(self, d, t_ms):
-        if (d["sender"] == self.sender_id and d["key"] == self._sent_key
-                and ticks_diff(t_ms, self._sent_key_t) <= self.echo_window_ms):
-            return  # our own keystroke seen again
+        # never our own: the link consumed our echo (see the module doc)
+        self._person_key = d["key"]
         why = "key %s from sender %d" % (d["key_name"], d["sender"])
         self._event(EV_PERSON_KEY, t_ms, why)
-        if self.commanding() or self.state == STANDING_BY:
+        if self.watching() or self.state == STANDING_BY:
             self._takeover(t_ms, why)
 
     def _on_mode_change(self, old, t_ms):
@@ -338,7 +374,14 @@ class St2000:
                 st.MODE_NAMES[old], st.MODE_NAMES[new], "asked" if asked else "unasked"))
         if asked:
             self._mode_confirmed(t_ms)
-        elif self.commanding() and old is not None:
+        elif (self.state == TAKEN_OVER and new == st.MODE_AUTO and self._person_key != st.KEY_AUTO
+              and self._sent_key == st.KEY_AUTO
+              and ticks_diff(t_ms, self._sent_key_t) <= self.mode_confirm_ms):
+            # our Auto landed after the person's key: the person wins
+            self._event(EV_OWN_AUTO_UNDONE, t_ms, "pilot went to auto on our own key after a takeover: "
+                        "standby sent back")
+            self.standby(t_ms)
+        elif self.watching() and old is not None:
             # a person (or the pilot itself) changed the mode while we were commanding
             if not (self.state == RECOVERING and self._rstage == _R_STANDBY_WAIT and new == st.MODE_STANDBY):
                 self._takeover(t_ms, "pilot left %s unasked: now %s" % (

@@ -4,6 +4,7 @@ Pure logic with injected time and randomness; the asyncio shell owns the UART.
 
 Driving contract (the shell does exactly this):
     link = StLink(framer=seatalk.Framer(), on_datagram=pilot.on_datagram, rand=Prng(seed))
+    link.on_sent = pilot.on_sent  # (dg, t_ms) as soon as a datagram's echo is complete
     link.send(dg)               # queue a datagram; False when the queue is full (bounded)
     # for EVERY byte read from the SeaTalk UART, in order, with its arrival time:
     link.on_rx(byte, t_ms)      # -> False for the echo of our own bytes (consumed here); True for
@@ -22,6 +23,11 @@ Driving contract (the shell does exactly this):
                                 # forward EV_FAILED's datagram to pilot.on_send_failed(dg, t_ms)
 poll() never returns WRITE twice without an echo, an echo timeout, or a backoff in between, and
 every datagram ends in exactly one EV_SENT or EV_FAILED: the link never hangs.
+
+Our own datagrams never reach on_datagram: each byte is written only after the previous one's
+echo was consumed here, so a late echo can bring back at most one byte, never a whole datagram.
+Any framed datagram is someone else's, even with our sender id (a hand remote): the pilot driver
+takes a keystroke there as a person's key.
 
 Timing defaults (4800 Bd, 11 bits a character = 2.29 ms): the bus counts as idle after
 `idle_ms` = 3 ms without a received byte (>= 10 bit times = 2.08 ms, rounded up to whole ms) plus
@@ -66,15 +72,22 @@ class Prng:
     instance from os.urandom in the wiring."""
 
     def __init__(self, seed=1):
-        self.s = (seed & 0xFFFFFFFF) or 0x2545F491
+        s = (seed & 0xFFFFFFFF) or 0x2545F491
+        # the 32-bit state as two 16-bit halves: 32-bit values are long ints (heap) on the ESP32
+        self.hi = s >> 16
+        self.lo = s & 0xFFFF
 
     def randint(self, lo, hi):
-        s = self.s
-        s ^= (s << 13) & 0xFFFFFFFF
-        s ^= s >> 17
-        s ^= (s << 5) & 0xFFFFFFFF
-        self.s = s
-        return lo + (s >> 8) % (hi - lo + 1)
+        sh = self.hi
+        sl = self.lo
+        sh ^= ((sh << 13) | (sl >> 3)) & 0xFFFF  # s ^= s << 13
+        sl ^= (sl << 13) & 0xFFFF
+        sl ^= sh >> 1  # s ^= s >> 17
+        sh ^= ((sh << 5) | (sl >> 11)) & 0xFFFF  # s ^= s << 5
+        sl ^= (sl << 5) & 0xFFFF
+        self.hi = sh
+        self.lo = sl
+        return lo + ((sh << 8) | (sl >> 8)) % (hi - lo + 1)
 
 
 class StLink:
@@ -83,6 +96,7 @@ class StLink:
                  queue_len=4, events_len=16):
         self.framer = framer
         self.on_datagram = on_datagram
+        self.on_sent = None
         self.rand = rand if rand is not None else Prng(1)
         self.idle_ms = idle_ms
         self.extra_wait_ms = extra_wait_ms
@@ -162,6 +176,8 @@ class StLink:
                 if self._i == len(self._dg):
                     self.sent += 1
                     self._event(EV_SENT, t_ms, "sent")
+                    if self.on_sent is not None:
+                        self.on_sent(self._dg, t_ms)
                     if self.framer is not None:
                         self.framer.reset()  # the next byte starts a datagram
                     self._next(t_ms)

@@ -8,11 +8,12 @@ telemetry tasks:
     send_status(app, t_ms)  one status datagram (docs/TELEMETRY.md) to telemetry.udp_host:status_port
     next_page()
     drain_events() -> [(kind, text)]: refused remote commands (AUTH_REFUSED) and HMI faults, for the log
-Remote commands are accepted only with the per-boat key (hmi.key_file) and a valid counter state
-(hmi.counter_file); without them the command port stays closed (docs/HMI.md).
+Remote commands are accepted only when hmi.remote_enabled is true (default false), with the per-boat
+key (hmi.key_file) and a valid counter state (hmi.counter_file); otherwise not one is taken and the
+key file is not even read (docs/HMI.md).
 
 Configuration (section "hmi", all optional): boat_id (0), key_file ("/hmi.key"),
-counter_file ("/auth_rx.bin"), command_port (10112), render_ms (200).
+counter_file ("/auth_rx.bin"), command_port (10112), render_ms (200), remote_enabled (false).
 
 Usage (tests build it with fakes):
     hmi = BoardHmi(wiring, cfg)           # wiring.i2c, wiring.buttons, wiring.leds, wiring.estop_active()
@@ -83,6 +84,9 @@ class BoardHmi:
         return ev
 
     def _setup_auth(self, hc):
+        if hc.get("remote_enabled", False) is not True:
+            self._event("HMI", "remote commands disabled (hmi.remote_enabled is false)")
+            return
         try:
             from tphmi.auth import AuthError, CommandVerifier, FileStore
         except ImportError:

@@ -569,6 +569,18 @@ def add_parser(p):
     p.add_argument("--run-timeout", type=float, default=240.0,
                    help="wall seconds after which a run's firmware is killed (counted as a failure); "
                         "a run without lockstep progress for 20 s is killed at once")
+    g = p.add_argument_group("robustness over random boats (docs/BENCHMARK_ROBUST.md)")
+    g.add_argument("--robust", type=int, metavar="N",
+                   help="run the robustness benchmark on N random boats instead (Dask distributed)")
+    g.add_argument("--robust-seed", type=int, default=1, metavar="S", help="first boat seed (default 1)")
+    g.add_argument("--robust-cases", metavar="A,B", help="cases (default all; with --quick the 1-3 m/s straights, "
+                   "one per boat)")
+    g.add_argument("--robust-one", type=int, metavar="BOAT", help="rerun one sample alone: boat seed (with --case, --laws)")
+    g.add_argument("--case", default="straight_2.0", help="the case for --robust-one")
+    g.add_argument("--fw-set", action="append", metavar="SEC.KEY=V",
+                   help="firmware configuration override for every run (e.g. guidance.los_lookahead_gain=3)")
+    g.add_argument("--scheduler", metavar="tcp://HOST:8786",
+                   help="a running Dask scheduler (default: a LocalCluster of --jobs workers)")
     p.set_defaults(func=run)
 
 
@@ -607,6 +619,13 @@ def _esp32_equiv(perf):
 
 
 def run(args):
+    if args.robust is not None or args.robust_one is not None:
+        from . import bench_robust
+
+        if args.robust is not None and args.robust < 1:
+            print("--robust N: N >= 1 boats")
+            return 2
+        return bench_robust.run(args)
     from .sim import benchtracks as bt
     from .sim import scenarios
 
@@ -708,7 +727,7 @@ def run(args):
                         log("accuracy %d/%d" % (len(results), len(acc)))
                 elif tag == "fault":
                     if "error" in res:
-                        res = {"name": job["fault"], "fault": job["fault"], "expected": bench_faults.SPEC[job["fault"]][1],
+                        res = {"name": job["fault"], "fault": job["fault"], "expected": bench_faults.expected_text(job["fault"]),
                                "reaction_ok": False, "detect_s": None, "recover_s": None, "max_xte_m": None,
                                "finished": False, "modes": [], "note": res["error"]}
                     faults.append(res)

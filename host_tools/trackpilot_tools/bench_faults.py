@@ -11,6 +11,11 @@ STANDBY, as the runner's person does), and if the firmware sits in ALARM (or EST
 fault ended they press STANDBY (or ACK once the E-stop input is released). Times are simulated
 seconds; "detect" is from the fault's start, "recover" from its end (for instantaneous faults:
 from its start) to the first record in AUTO with the guidance running and no alarm from the fault.
+
+Besides the single faults, combined cases (CASES, issue 14) that once broke the safety contract:
+the takeover race (a person's Standby while our recovery's Auto is in flight; the issue's own run
+on tracks/middelburg_loop.csv, deterministic), sender id 0 in the config file, a config file with
+a misspelled key, and a silent pilot while the firmware is in ALARM (no recovery by the driver).
 """
 import math
 from pathlib import Path
@@ -68,12 +73,47 @@ SPEC = {
                     "(only the person's ENGAGE brings AUTO back)", "reset"),
     "button_standby": (None, "STANDBY at once, Standby key to the pilot", "standby"),
     "button_engage": (None, "already in AUTO: stays in AUTO (re-engage is harmless)", "keep"),
+    "remote_key_echo": (None, "takeover: a hand remote with our sender id repeating our key is a person: "
+                              "STANDBY + takeover alarm, the firmware stops keying the pilot", "takeover"),
+    "button_ack": (None, "nothing sounding in AUTO: stays in AUTO (ACK only mutes)", "keep"),
+}
+
+
+_LOOP = Path(__file__).resolve().parents[2] / "tracks" / "middelburg_loop.csv"
+
+# name: faults (absolute times, s), the firmware's config file (bytes) or None, the track (None: the
+# matrix's U-turn), the scenario, the defined reaction, end_s for the person's ALARM check
+CASES = {
+    "race_takeover_vs_recovery": {
+        "faults": ["pilot_hang_keys@20", "pilot_key_standby@31.115"], "config": None, "track": _LOOP,
+        "scenario": "calm", "end_s": 31.2,
+        "expected": "the person's Standby wins over our recovery's Auto already in flight: pilot ends in "
+                    "Standby (our Auto answered with Standby), STANDBY + takeover alarm, no AUTO by itself"},
+    "sender0_config": {
+        "faults": ["button_ack@2", "pilot_key_plus1@%g" % T_FAULT], "config": b'{"pilot": {"sender_id": 0}}',
+        "track": None, "scenario": "current", "end_s": T_FAULT,
+        "expected": "sender id 0 refused (config alarm, defaults; ENGAGE after ACK); the person's +1 on the "
+                    "pilot is a takeover: STANDBY + takeover alarm, no more keys"},
+    "bad_config": {
+        "faults": ["button_ack@%g" % T_FAULT, "button_engage@%g" % (T_FAULT + 1)],
+        "config": b'{"modes": {"xte_alarm": 5.0}}', "track": None, "scenario": "current", "end_s": T_FAULT,
+        "expected": "misspelled key: config alarm at boot, every ENGAGE refused until a person's ACK, then "
+                    "AUTO on the defaults"},
+    "alarm_no_recovery": {
+        "faults": ["gnss_dropout@%g:60" % (T_FAULT - 20), "pilot_silent@%g:6" % T_FAULT], "config": None,
+        "track": None, "scenario": "current", "end_s": T_FAULT + 40,
+        "expected": "in ALARM (GNSS gone beyond the hold time) a silent pilot is not recovered: no keys, "
+                    "the pilot stays in Auto on its course"},
 }
 
 
 def fault_list():
     missing = sorted(set(scenarios.FAULTS) - set(SPEC))
-    return list(scenarios.FAULTS), missing
+    return list(scenarios.FAULTS) + list(CASES), missing
+
+
+def expected_text(name):
+    return CASES[name]["expected"] if name in CASES else SPEC[name][1]
 
 
 def _person(r, end_s):
@@ -113,6 +153,8 @@ def run_fault(job):
     from .sim.runner import SimRun
 
     name, track, out = job["fault"], job["track"], job["out"]
+    if name in CASES:
+        return run_case(job)
     dur, _, _ = SPEC[name]
     text = "%s@%g" % (name, T_FAULT) + (":%g" % dur if dur else "")
     r = SimRun(track, out, seed=job.get("seed", 1), law="los", scenario="current", faults=[text],
@@ -135,6 +177,76 @@ def run_fault(job):
     if dog.fired:
         row["note"] = "firmware stopped answering, run killed: %s; %s" % (dog.fired, row["note"])
     return row
+
+
+def run_case(job):
+    from .bench_perf import watchdog
+    from .sim.runner import SimRun
+
+    name, out = job["fault"], job["out"]
+    c = CASES[name]
+    r = SimRun(c["track"] or job["track"], out, seed=job.get("seed", 1), law="los", scenario=c["scenario"],
+               faults=c["faults"], reengage_s=0.0 if name == "race_takeover_vs_recovery" else REENGAGE_S,
+               fw_config_bytes=c["config"], duration_s=job.get("duration_s", T_FAULT + 60.0))
+    _person(r, c["end_s"])
+    dog = watchdog(r, job.get("timeout", 300))
+    res = r.run()
+    dog.cancel()
+    try:
+        ctl, evs = _records(out, res)
+    except Exception as e:  # a log the decoder cannot read is a finding too
+        ctl, evs = [], []
+        res.setdefault("decode_error", str(e))
+    row = evaluate_case(name, ctl, evs, res, r)
+    row.update({"fault": name, "finished": res["finished_s"] is not None, "stop": res["stop_reason"],
+                "failure": res["failure"], "timed_out": dog.fired})
+    return row
+
+
+def evaluate_case(name, ctl, evs, res, r):
+    from .sim.stcodec import MODE_STANDBY
+
+    case = CASES[name]
+    modes = [(t, v) for t, n, v in res["outputs"] if n == "mode"]
+    ok, detect, note = False, None, ""
+    F = T_FAULT
+    if name == "race_takeover_vs_recovery":
+        F = 31.115
+        detect = _first(ctl, lambda c: c.mode != AUTO, F - 0.5)
+        undone = any(e.kind == "PILOT" and e.text.startswith("OWN_AUTO_UNDONE") for e in evs)
+        auto_after = [t for t, v in modes if t > F and v.startswith("AUTO")]
+        ok = r.pilot.mode == MODE_STANDBY and not auto_after and detect is not None
+        note = ("our Auto landed after the person's Standby and was answered with Standby" if undone
+                else "the person's Standby landed last") if ok else "pilot mode %s at the end" % r.pilot.mode
+    elif name == "sender0_config":
+        cfg_al = any(e.kind == "ALARM" and e.text.startswith("config:") for e in evs)
+        detect = _first(ctl, lambda c: c.mode != AUTO, F)
+        tk = _first(ctl, lambda c: c.alarms & AL["takeover"], F)
+        ks = [c.keys_sent for c in ctl if detect is not None and detect + 1.0 <= c.t_sim < F + 5.0]
+        ok = cfg_al and tk is not None and detect is not None and detect - F <= 2.0 and (not ks or ks[-1] == ks[0])
+        note = "" if ok else "config alarm %s, takeover alarm at %s" % (cfg_al, tk)
+    elif name == "bad_config":
+        cfg_al = any(e.kind == "ALARM" and e.text.startswith("config:") for e in evs)
+        refused = [e for e in evs if e.kind == "REFUSED" and e.t_sim < F]
+        early = [t for t, v in modes if t < F and v.startswith("AUTO")]
+        detect = _first(ctl, lambda c: c.mode == AUTO, F)
+        ok = cfg_al and bool(refused) and not early and detect is not None
+        note = "%d ENGAGE refused before the ACK" % len(refused)
+    elif name == "alarm_no_recovery":
+        F = T_FAULT - 20  # times from the dropout
+        alarm_t = _first(ctl, lambda c: c.mode == ALARM, F)
+        in_alarm = [c for c in ctl if alarm_t is not None and c.t_sim >= alarm_t and c.mode == ALARM]
+        pilot_got = [txt for t, k, txt in res["events"]
+                     if k == "pilot" and alarm_t is not None and alarm_t <= t <= T_FAULT + 20 and "sender 1" in txt]
+        recov = [e.text for e in evs if e.kind == "PILOT" and ("RECOVER" in e.text or "HANG" in e.text)]
+        detect = alarm_t
+        ok = bool(in_alarm) and not pilot_got and not recov and in_alarm[-1].keys_sent == in_alarm[0].keys_sent
+        note = "" if ok else "pilot got %s; driver %s" % (pilot_got[:2], recov[:2])
+    xs = [abs(float(row[24])) for row in r.truth_rows if float(row[0]) >= F]
+    return {"name": name, "expected": case["expected"], "reaction_ok": bool(ok),
+            "detect_s": None if detect is None else round(detect - F, 2), "recover_s": None,
+            "max_xte_m": round(max(xs), 2) if xs else None, "note": note,
+            "modes": [v for t, v in modes if t >= F][:8]}
 
 
 def _first(recs, pred, t_from, t_to=1e9):

@@ -41,10 +41,15 @@ def build_parser():
 
 
 def main(argv=None):
+    from .errors import UserError
+
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
         return args.func(args) or 0
+    except UserError as e:
+        print("trackpilot %s: %s" % (args.command, e), file=sys.stderr)
+        return 2
     except BrokenPipeError:
         return 0
     except KeyboardInterrupt:

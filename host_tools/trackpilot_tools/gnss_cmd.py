@@ -6,8 +6,10 @@
 The decoding runs under MicroPython ($MICROPYTHON) in `firmware/tools/gnss_decode.py`, so what
 you see is exactly what the boat's firmware decodes. Parser counters go to stderr.
 """
+import os
 import sys
 
+from trackpilot_tools.errors import UserError, script_error_line
 from trackpilot_tools.mpy import FIRMWARE_DIR, run_script
 
 DECODE_SCRIPT = FIRMWARE_DIR / "tools" / "gnss_decode.py"
@@ -29,7 +31,12 @@ def run_decode(path, fixes=False, offset_deg=0.0, chunk=64, timeout=600):
 
 
 def _decode(args):
-    out, err = run_decode(args.file, args.fixes, args.offset, args.chunk)
+    if not os.path.isfile(args.file):
+        raise UserError("no such capture file: %s" % args.file)
+    try:
+        out, err = run_decode(args.file, args.fixes, args.offset, args.chunk)
+    except RuntimeError as e:
+        raise UserError("decoding failed: %s" % script_error_line(e))
     sys.stdout.write(out)
     if not args.quiet:
         sys.stderr.write(err)

@@ -11,6 +11,7 @@ import sys
 import tempfile
 from pathlib import Path
 
+from trackpilot_tools.errors import script_error_line
 from trackpilot_tools.mpy import HMI_DIR, ROOT, run_script
 
 RENDER_SCRIPT = HMI_DIR / "tphmi" / "render_cli.py"
@@ -138,7 +139,8 @@ def cmd_preview(args):
             status = status_from_log(args.log, args.at)
         pages = render(status=status, sample=args.sample, t_ms=args.t_ms, progress=args.progress)
     except (ValueError, RuntimeError, OSError) as e:
-        print("trackpilot hmi preview: %s" % e, file=sys.stderr)
+        # one line: a failed MicroPython renderer's own last line, not its whole output
+        print("trackpilot hmi preview: %s" % script_error_line(e), file=sys.stderr)
         return 2
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

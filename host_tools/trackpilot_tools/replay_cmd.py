@@ -4,9 +4,11 @@ The firmware's own code runs under MICROPYTHON (firmware/tools/replay.py). With 
 the boat ran, every heading and speed command must come out identical; with `--law` or `--set`
 it shows what another law or other parameters would have commanded for the same inputs.
 """
+import json
 import sys
 from pathlib import Path
 
+from trackpilot_tools.errors import UserError, script_error_line
 from trackpilot_tools.mpy import ROOT, run_script
 
 SCRIPT = ROOT / "firmware" / "tools" / "replay.py"
@@ -34,14 +36,77 @@ def run_replay(logs, config=None, law=None, sets=(), csv=False):
     return summary, rows
 
 
+def _check_sets(config_path, sets):
+    """--config and --set checked on the host, so a typo is one line, not a MicroPython error."""
+    from trackpilot_tools.logdecode import FIRMWARE_DIR  # noqa: F401 (puts the firmware on sys.path)
+    from trackpilot import config as fwconfig
+
+    if config_path and not Path(config_path).is_file():
+        raise UserError("no such configuration file: %s" % config_path)
+    cfg = {}
+    for item in sets or ():
+        key, eq, text = item.partition("=")
+        sec, dot, name = key.partition(".")
+        if not eq or not dot or not sec or not name:
+            raise UserError("--set %r: expected SECTION.KEY=VALUE, e.g. guidance.los_lookahead_gain=3" % item)
+        try:
+            value = json.loads(text)
+        except ValueError:
+            value = text
+        cfg.setdefault(sec, {})[name] = value
+    errors = fwconfig.validate(cfg)
+    if errors:
+        raise UserError("--set: " + "; ".join(errors))
+
+
+def _time_axis(rows, decoded):
+    """Seconds since the log's first control record for each replayed row (ticks wrap at 2^30;
+    a jump outside -1 s..1 h is a new session and continues the axis, as logdecode does)."""
+    from trackpilot.compat import ticks_diff
+
+    if not rows:
+        return []
+    first = decoded.controls[0] if decoded.controls else None
+    t = ticks_diff(int(rows[0][0]), first.t_ms) / 1000.0 if first is not None else 0.0
+    out = [max(t, 0.0)]
+    for prev, row in zip(rows, rows[1:]):
+        dt = ticks_diff(int(row[0]), int(prev[0]))
+        if not -1000 < dt < 3600000:
+            dt = 0
+        out.append(out[-1] + dt / 1000.0)
+    return out
+
+
+def _with_gaps(t, ys, gap_s):
+    """Copies of t and ys with a NaN point wherever consecutive samples are more than gap_s apart,
+    so the plot shows the gap instead of a straight line across it."""
+    tt, yy = [], []
+    for i, (a, y) in enumerate(zip(t, ys)):
+        if i and a - t[i - 1] > gap_s:
+            tt.append((a + t[i - 1]) / 2)
+            yy.append(float("nan"))
+        tt.append(a)
+        yy.append(y)
+    return tt, yy
+
+
 def cmd_replay(args):
+    from trackpilot_tools.logdecode import LogError, decode_files
+
     logs = [Path(p) for p in args.logs]
     for p in logs:
         if not p.is_file():
-            print("replay: no such log: %s" % p, file=sys.stderr)
-            return 2
+            raise UserError("no such log: %s" % p)
+    _check_sets(args.config, args.set)
+    try:
+        decoded = decode_files(logs)
+    except LogError as e:
+        raise UserError(str(e))
     want_rows = bool(args.csv or args.plot)
-    summary, rows = run_replay(logs, args.config, args.law, args.set or (), want_rows)
+    try:
+        summary, rows = run_replay(logs, args.config, args.law, args.set or (), want_rows)
+    except RuntimeError as e:
+        raise UserError("replay failed: %s" % script_error_line(e))
     g = int(summary.get("guided", 0))
     print("replayed %d control steps, %d guided, law %s" % (summary.get("control", 0), g, summary.get("law")))
     print("heading commands identical: %d of %d; speed commands identical: %d of %d" % (
@@ -49,13 +114,22 @@ def cmd_replay(args):
     print("heading command difference: max %.2f deg, RMS %.3f deg" % (
         summary.get("max_heading_diff_deg", 0), summary.get("rms_heading_diff_deg", 0)))
     if summary.get("damage"):
-        print("log damage reports: %d (records in damaged spans are skipped)" % summary["damage"])
+        print("log damage reports: %d (records in damaged spans are skipped; "
+              "`trackpilot log decode` lists them)" % summary["damage"])
+    if not summary.get("control"):
+        why = ("no track record before the control records" if decoded.controls and decoded.track is None
+               else "no control records could be read" if not decoded.controls
+               else "no control records after the track record")
+        print("trackpilot replay: nothing to replay: %s (%d control records, %d damage reports)"
+              % (why, len(decoded.controls), len(decoded.damage)), file=sys.stderr)
+        return 1
+    t_s = _time_axis(rows, decoded)
     if args.csv:
         with open(args.csv, "w") as f:
-            f.write("t_ms,leg,logged_heading_cmd_deg,replayed_heading_cmd_deg,logged_speed_cmd_mps,"
+            f.write("t_s,t_ms,leg,logged_heading_cmd_deg,replayed_heading_cmd_deg,logged_speed_cmd_mps,"
                     "replayed_speed_cmd_mps,xte_m\n")
-            for r in rows:
-                f.write("%d,%d,%.2f,%.2f,%.3f,%.3f,%.2f\n" % tuple(r))
+            for ts, r in zip(t_s, rows):
+                f.write("%.3f,%d,%d,%.2f,%.2f,%.3f,%.3f,%.2f\n" % ((ts,) + tuple(r)))
         print("csv: %s" % args.csv)
     if args.plot and rows:
         import matplotlib
@@ -63,18 +137,23 @@ def cmd_replay(args):
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
-        t0 = rows[0][0]
-        t = [(r[0] - t0) / 1000.0 for r in rows]
+        utc = next((h.get("utc") for h in decoded.headers if h.get("utc")), None)
+        gap_s = 2.0  # guided steps come at the GNSS rate (5-10 Hz); a longer pause is a gap
         fig, ax = plt.subplots(2, 1, figsize=(10, 6), sharex=True)
-        ax[0].plot(t, [r[2] for r in rows], label="logged command")
-        ax[0].plot(t, [r[3] for r in rows], label="replayed command", linestyle="--")
+        ax[0].plot(*_with_gaps(t_s, [r[2] for r in rows], gap_s), label="logged command")
+        ax[0].plot(*_with_gaps(t_s, [r[3] for r in rows], gap_s), label="replayed command", linestyle="--")
         ax[0].set_ylabel("heading command (deg)")
-        ax[0].legend()
-        ax[1].plot(t, [r[6] for r in rows])
+        ax[0].set_title("Replay (law %s): logged vs replayed heading command" % summary.get("law"))
+        ax[0].legend(loc="best", fontsize=8)
+        ax[1].plot(*_with_gaps(t_s, [r[6] for r in rows], gap_s))
         ax[1].set_ylabel("xte (m, + stbd)")
-        ax[1].set_xlabel("t (s, guided steps)")
+        ax[1].set_xlabel("time since log start (s)" + (", start %s UTC" % utc if utc else "")
+                         + "; guided steps only, gaps left open")
+        for a in ax:
+            a.grid(True, alpha=0.3)
         fig.tight_layout()
         fig.savefig(args.plot, dpi=100)
+        plt.close(fig)
         print("plot: %s" % args.plot)
     if args.expect_identical and (summary.get("heading_identical") != g or summary.get("speed_identical") != g):
         return 1

@@ -11,8 +11,10 @@ is exactly what the boat's firmware makes of those bytes. Formats: docs/SEATALK.
 """
 import random
 import re
+import os
 import sys
 
+from trackpilot_tools.errors import UserError, script_error_line
 from trackpilot_tools.mpy import FIRMWARE_DIR, ROOT, run_script
 
 DECODE_SCRIPT = FIRMWARE_DIR / "tools" / "seatalk_decode.py"
@@ -76,7 +78,12 @@ def run_decode(path, fmt="auto", odd_rule="dotnet", gap_ms=0, byte_ms=0, timeout
 
 
 def _decode(args):
-    out, err = run_decode(args.file, args.format, args.odd_rule, args.gap_ms, args.byte_ms)
+    if not os.path.isfile(args.file):
+        raise UserError("no such capture file: %s" % args.file)
+    try:
+        out, err = run_decode(args.file, args.format, args.odd_rule, args.gap_ms, args.byte_ms)
+    except RuntimeError as e:
+        raise UserError("decoding failed: %s" % script_error_line(e))
     sys.stdout.write(out)
     if not args.quiet:
         sys.stderr.write(err)

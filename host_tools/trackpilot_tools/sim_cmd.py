@@ -4,6 +4,9 @@ import json
 import sys
 from pathlib import Path
 
+from .errors import UserError
+from .outdir import fresh_output
+
 
 def add_parser(p):
     from .sim import scenarios
@@ -25,12 +28,20 @@ def add_parser(p):
     p.add_argument("--realtime", action="store_true", help="pace the run to the wall clock")
     p.add_argument("--realtime-speed", type=float, default=1.0, help="with --realtime: x real time")
     p.add_argument("--udp-out", action="store_true",
-                   help="send the firmware's status datagrams to 127.0.0.1:10111 (trackpilot monitor) "
-                        "and its NMEA to 127.0.0.1:10110 (OpenCPN); default with --realtime")
+                   help="send the firmware's status datagrams to UDP-HOST:10111 (trackpilot monitor) "
+                        "and its NMEA to UDP-HOST:10110 (OpenCPN); default with --realtime")
+    p.add_argument("--udp-host", default="127.0.0.1",
+                   help="with --udp-out: where to send, a host, an address or a broadcast address such "
+                        "as 192.168.1.255 (default 127.0.0.1)")
+    p.add_argument("--udp-port", type=int, default=10111, help="status datagram port (default 10111)")
+    p.add_argument("--nmea-port", type=int, default=10110, help="NMEA 0183 port (default 10110)")
     p.add_argument("--duration-s", type=float, help="time limit (default 1.5 x the track's time + 120 s)")
     p.add_argument("--params", help="JSON file merged over the simulator's boat_params.json")
     p.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
                    help="override one simulator parameter, e.g. pilot.deadband_deg=3")
+    p.add_argument("--fw-config", metavar="FILE",
+                   help="the firmware's config.json as-is, not checked here (to see how the firmware "
+                        "treats a bad file); replaces --fw-set")
     p.add_argument("--fw-set", action="append", default=[], metavar="SECTION.KEY=VALUE",
                    help="override one firmware configuration setting, e.g. guidance.seed_k_y_deg_per_m=2")
     p.add_argument("--start-offset-m", type=float, help="start this far to starboard of the first leg")
@@ -58,18 +69,104 @@ def build_overrides(args):
     return over
 
 
+def check_inputs(args):
+    """Every input checked before the run starts: (simulator overrides, firmware settings).
+    Raises UserError with one line naming the mistake."""
+    from .sim import params as pm
+    from .sim import scenarios
+    from .sim.runner import _fw_import
+
+    _fw_import()
+    from trackpilot import config as fwconfig
+    from trackpilot.track import TrackError, parse_track_csv
+
+    track = Path(args.track)
+    if not track.is_file():
+        raise UserError("no such track file: %s" % track)
+    try:
+        parse_track_csv(track.read_bytes())
+    except TrackError as e:
+        raise UserError("%s: %s (check it with `trackpilot track check %s`)" % (track, e, track))
+    for f in args.fault:
+        try:
+            scenarios.parse_fault(f)
+        except ValueError as e:
+            raise UserError(str(e))
+    try:
+        over = build_overrides(args)
+        fw_set = pm.parse_set(args.fw_set)
+    except ValueError as e:
+        raise UserError(str(e))
+    if args.params and not Path(args.params).is_file():
+        raise UserError("no such parameter file: %s" % args.params)
+    try:
+        p = pm.load(args.params, over)
+        pm.merge(p, scenarios.PRESETS[args.scenario])
+    except KeyError as e:
+        raise UserError(e.args[0] + " (the names are in sim/boat_params.json)")
+    except ValueError as e:  # a parameter file that is not JSON
+        raise UserError("%s: not a JSON parameter file (%s)" % (args.params, e))
+    errors = fwconfig.validate(fw_set)
+    if errors:
+        raise UserError("--fw-set: " + "; ".join(errors))
+    for name in ("duration_s", "realtime_speed"):
+        v = getattr(args, name)
+        if v is not None and not v > 0:
+            raise UserError("--%s must be > 0" % name.replace("_", "-"))
+    for name in ("udp_port", "nmea_port"):
+        if not 0 < getattr(args, name) < 65536:
+            raise UserError("--%s must be a UDP port, 1..65535" % name.replace("_", "-"))
+    if args.fw_config and not Path(args.fw_config).is_file():
+        raise UserError("no such firmware config file: %s" % args.fw_config)
+    if Path(args.out).exists() and not Path(args.out).is_dir():
+        raise UserError("--out %s is a file, not a folder" % args.out)
+    return over, fw_set
+
+
+def udp_targets(args):
+    """(host, status port, NMEA port) for the live datagrams, or None."""
+    if not (args.udp_out or args.realtime):
+        return None
+    return (args.udp_host, args.udp_port, args.nmea_port)
+
+
 def run(args):
+    check_inputs(args)
+    final = Path(args.out)
+    try:
+        with fresh_output(final) as out:
+            res, summ, plots = _sail(args, out)
+    except KeyboardInterrupt:
+        print("\ninterrupted: the partial output is in %s.partial/ (see PARTIAL.txt there); "
+              "%s/ is unchanged" % (final, final), file=sys.stderr)
+        raise
+    out = final
+    print((out / "summary.md").read_text())
+    print("output folder: %s" % out)
+    print("  firmware log: %s" % ", ".join(str(out / f) for f in summ["firmware_log_files"])
+          if summ["firmware_log_files"]
+          else "  firmware log: none written")
+    print("  truth trace:  %s" % (out / "truth.csv"))
+    print("  summary:      %s, %s" % (out / "summary.json", out / "summary.md"))
+    for p in plots:
+        print("  plot:         %s" % (out / Path(p).name))
+    return 0 if res["failure"] is None else 1
+
+
+def _sail(args, out):
+    """The run itself, writing into `out` (the fresh temporary folder)."""
     from .sim import params as pm
     from .sim import report
     from .sim.runner import SimRun
 
-    out = Path(args.out)
+    fw_bytes = Path(args.fw_config).read_bytes() if args.fw_config else None  # readable: check_inputs
     run_ = SimRun(args.track, out, seed=args.seed, law=args.law, scenario=args.scenario,
                   faults=args.fault, param_file=args.params, overrides=build_overrides(args),
                   duration_s=args.duration_s, realtime=args.realtime,
                   realtime_speed=args.realtime_speed,
-                  udp_out=(10111, 10110) if (args.udp_out or args.realtime) else None,
+                  udp_out=udp_targets(args),
                   fw_config=pm.parse_set(args.fw_set),
+                  fw_config_bytes=fw_bytes,
                   reengage_s=args.reengage_s, quiet=not args.verbose)
     res = run_.run()
     meta = {"track": str(args.track), "law": args.law, "scenario": args.scenario, "seed": args.seed,
@@ -79,13 +176,4 @@ def run(args):
     plots = []
     if not args.no_plots:
         plots = report.plot_truth(str(out), res["geom"]) + report.plot_firmware_log(str(out))
-    print((out / "summary.md").read_text())
-    print("output folder: %s" % out)
-    print("  firmware log: %s" % ", ".join(str(out / f) for f in summ["firmware_log_files"])
-          if summ["firmware_log_files"]
-          else "  firmware log: none written")
-    print("  truth trace:  %s" % (out / "truth.csv"))
-    print("  summary:      %s, %s" % (out / "summary.json", out / "summary.md"))
-    for p in plots:
-        print("  plot:         %s" % p)
-    return 0 if res["failure"] is None else 1
+    return res, summ, plots

@@ -33,6 +33,9 @@ from trackpilot import track as fw_track  # noqa: E402
 KNOT_MPS = 1852.0 / 3600.0
 DEFAULT_SPEED_MPS = 1.5
 TRACK_SIMPLIFY_M = 2.0  # default tolerance for recorded GPX tracks
+# The .kml inside a KMZ is read at most this big: a 2000-waypoint route is well under 1 MB and a
+# long recorded track a few MB, while a 300 KB zip bomb can unpack to hundreds of MB.
+KMZ_MAX_UNZIPPED_BYTES = 16 * 1024 * 1024
 
 
 class TrackImportError(ValueError):
@@ -147,8 +150,14 @@ def read_kml(data, select=None):
                 names = [n for n in z.namelist() if n.lower().endswith(".kml")]
                 if not names:
                     raise TrackImportError("KMZ without a .kml inside")
-                data = z.read("doc.kml" if "doc.kml" in names else names[0])
-        except zipfile.BadZipFile as e:
+                name = "doc.kml" if "doc.kml" in names else names[0]
+                with z.open(name) as f:  # bounded: never trust the sizes the zip declares
+                    data = f.read(KMZ_MAX_UNZIPPED_BYTES + 1)
+                if len(data) > KMZ_MAX_UNZIPPED_BYTES:
+                    raise TrackImportError("KMZ: %s unpacks to more than %d MB; a route is far smaller "
+                                           "(export the route alone, or unzip it and import the .kml)"
+                                           % (name, KMZ_MAX_UNZIPPED_BYTES // (1024 * 1024)))
+        except (zipfile.BadZipFile, zipfile.LargeZipFile, NotImplementedError, EOFError, OSError) as e:
             raise TrackImportError("bad KMZ: %s" % e)
     root = _parse_xml(data)
     if _local(root.tag) != "kml":

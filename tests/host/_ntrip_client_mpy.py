@@ -7,6 +7,7 @@ from trackpilot import ntrip
 port = int(sys.argv[1])
 mount = sys.argv[2]
 want = int(sys.argv[3])
+keep_going = len(sys.argv) > 4 and sys.argv[4] == "keep"  # do not stop at a refusal: reconnect
 frames = []
 events = []
 stop = asyncio.Event()
@@ -20,7 +21,7 @@ def forward(frame):
 
 def ev(kind, text):
     events.append(text)
-    if "not found" in text or "refused" in text:
+    if ("not found" in text or "refused" in text) and not keep_going:
         stop.set()
 
 

@@ -5,10 +5,14 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[2]
 
 from trackpilot_tools import device_cmd  # noqa: E402
 from trackpilot_tools.mpy import micropython_cmd  # noqa: E402
+
+pytestmark = pytest.mark.mpy  # runs the firmware under $MICROPYTHON (so make test's 32-bit pass too)
 
 
 def test_dry_run_builds_importable_mpy(tmp_path):

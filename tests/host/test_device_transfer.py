@@ -21,6 +21,8 @@ from trackpilot_tools.device_cmd import Device, DeviceError  # noqa: E402
 from trackpilot_tools.pull_cmd import pull  # noqa: E402
 from trackpilot_tools.upload_cmd import upload  # noqa: E402
 
+pytestmark = pytest.mark.mpy  # runs the firmware under $MICROPYTHON (so make test's 32-bit pass too)
+
 TRACK = ROOT / "tracks" / "middelburg_loop.csv"
 OLD_TRACK = "lon,lat,speed_mps\n3.6100000,51.4900000,1.0\n3.6110000,51.4910000,1.0\n"
 

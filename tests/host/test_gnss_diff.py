@@ -309,3 +309,57 @@ def test_float32_build_prints_the_same(tmp_path, monkeypatch):
     print("float32 vs double: %d files print identical messages; %d fixes agree" % (len(paths),
                                                                                  nfix))
     assert nfix >= 40
+
+
+def _order_stream(order, with_eoe, n_epochs=10, period_ms=200):
+    """pyubx2-made epochs with the messages in `order`, NAV-EOE last if asked."""
+    frames = []
+    for k in range(n_epochs):
+        itow = 300000000 + period_ms * k
+        msgs = {
+            "PVT": UBXMessage("NAV", "NAV-PVT", GET, iTOW=itow, year=2026, month=11, day=24,
+                              hour=11, min=20, second=k % 60, validDate=1, validTime=1,
+                              fixType=3, gnssFixOk=1, carrSoln=2, numSV=22, lat=51.5 + k * 1e-6,
+                              lon=3.61 - k * 1e-6, height=50000, hMSL=4000, hAcc=14, vAcc=20,
+                              gSpeed=1500, headMot=91.5, sAcc=50, headAcc=1.5, pDOP=1.2),
+            "REL": UBXMessage("NAV", "NAV-RELPOSNED", GET, version=1, iTOW=itow, relPosN=3,
+                              relPosE=150, relPosLength=150, relPosHeading=88.12345 + 7.3 * k,
+                              accHeading=0.3, gnssFixOK=1, relPosValid=1, carrSoln=2,
+                              isMoving=1, relPosHeadingValid=1),
+            "HP": UBXMessage("NAV", "NAV-HPPOSLLH", GET, iTOW=itow, lat=51.5 + k * 1e-6,
+                             lon=3.61 - k * 1e-6, _HPlat=3.3e-8, _HPlon=-2.1e-8, height=50000,
+                             hMSL=4000, hAcc=12.3, vAcc=20.0),
+        }
+        for name in order:
+            frames.append(msgs[name].serialize())
+        if with_eoe:
+            frames.append(UBXMessage("NAV", "NAV-EOE", GET, iTOW=itow).serialize())
+    return b"".join(frames)
+
+
+@pytest.mark.parametrize("with_eoe", [False, True])
+def test_every_message_order_gives_pyubx2s_heading_and_position(tmp_path, with_eoe):
+    """Issue 12: any order of NAV-PVT / NAV-RELPOSNED / NAV-HPPOSLLH, with or without NAV-EOE:
+    every epoch after the first two (the order being learnt) has pyubx2's heading and
+    high-precision position."""
+    import itertools
+
+    n_cmp = 0
+    for order in itertools.permutations(("PVT", "REL", "HP")):
+        path = tmp_path / ("%s_%d.ubx" % ("-".join(order), with_eoe))
+        raw = _order_stream(order, with_eoe)
+        path.write_bytes(raw)
+        fixes, stats = decode(path, fixes=True)
+        assert stats["ck_err"] == 0
+        assert len(fixes) == 10, (order, len(fixes))
+        ref = reference(raw)
+        rel = {r.iTOW: r for t, r in ref if t == "NAV-RELPOSNED"}
+        hp = {r.iTOW: r for t, r in ref if t == "NAV-HPPOSLLH"}
+        for f in fixes[2:]:
+            sec = int(round(f["itow"] * 1000))
+            assert f["heading_valid"], (order, f)
+            assert abs(f["heading"] - rel[sec].relPosHeading) < 1e-5, (order, f)
+            assert abs(f["lat"] - hp[sec].lat) < 1e-12 and abs(f["lon"] - hp[sec].lon) < 1e-12
+            assert f["rtk"] == "fixed"
+            n_cmp += 1
+    assert n_cmp == 6 * 8

@@ -13,6 +13,8 @@ from trackpilot_tools import hmi_cmd
 from trackpilot_tools.cli import main
 from trackpilot_tools.mpy import FIRMWARE_DIR, HMI_DIR, run_script
 
+pytestmark = pytest.mark.mpy  # runs the firmware under $MICROPYTHON (so make test's 32-bit pass too)
+
 for _p in (str(FIRMWARE_DIR), str(HMI_DIR)):
     if _p not in sys.path:
         sys.path.insert(0, _p)

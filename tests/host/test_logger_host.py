@@ -174,3 +174,65 @@ def test_unwritable_root_does_not_raise(tmp_path):
         lg.tick(r.t_ms)
     lg.close()
     assert lg.write_errors > 0 and lg.dropped_control == 20
+
+
+class _SmallFs:
+    """statvfs of a small filesystem holding only the log directory: 4 KiB blocks."""
+
+    def __init__(self, root, total_bytes):
+        self.root = root
+        self.blocks = total_bytes // 4096
+
+    def __call__(self, path):
+        used = sum((p.stat().st_size + 4095) // 4096 for p in Path(self.root).iterdir())
+        free = self.blocks - used
+        return (4096, 4096, self.blocks, free, free, 0, 0, 0, 0, 255)
+
+
+def test_retention_budget_on_a_small_filesystem_keeps_older_sessions_at_boot(tmp_path):
+    """Issue 14.12: with the config's defaults a new part needed 1.25 MiB free, so the first boot
+    on a small filesystem deleted every older session. On a 1 MiB filesystem with three older
+    sessions (840 KB) nothing is deleted at boot; logging then deletes oldest first, never the
+    current session, and the logs never overrun the filesystem."""
+    sys.path.insert(0, str(ROOT / "firmware"))
+    from trackpilot import config
+
+    log_cfg = config.defaults()["log"]
+    root = str(tmp_path)
+    for s in (3, 4, 5):
+        _old_session(root, s, 280000)
+    fs = _SmallFs(root, 1024 * 1024)
+    lg = Logger(root, statvfs=fs, max_file_bytes=log_cfg["max_file_bytes"],
+                min_free_bytes=log_cfg["min_free_bytes"], space_check_ms=1000)
+    lg.start(0)
+    assert lg.session == 6
+    assert lg.deleted_files == 0, sorted(os.listdir(root))
+    assert lg.low_water_bytes == 128 * 1024  # 1/8 of the filesystem, below the configured 256 KiB
+    pad = "x" * 180
+    n = 0
+    for r, events in sailing_records(6000, t0_ms=0):
+        lg.control(r)
+        lg.event("INFO", pad, r.t_ms)
+        lg.tick(r.t_ms)
+        n += 1
+        if lg.deleted_files:
+            break
+    lg.close()
+    left = sorted(os.listdir(root))
+    assert lg.deleted_files == 1 and left[0].startswith("0004-"), left  # the oldest went first
+    assert any(x.startswith("0006-") for x in left)
+    assert _used(root) <= 1024 * 1024
+    # the free space above the reserve (196 KiB free - 128 KiB) was used before any deletion
+    assert lg.bytes_written > 60000, (n, lg.bytes_written)
+
+
+def test_log_format_doc_states_the_config_defaults():
+    """Issue 14.12: docs/LOG_FORMAT.md and the config's defaults said different things."""
+    from trackpilot import config
+
+    doc = (ROOT / "docs" / "LOG_FORMAT.md").read_text()
+    log_cfg = config.defaults()["log"]
+    assert "`log.max_file_bytes` (default %d KiB)" % (log_cfg["max_file_bytes"] // 1024) in doc
+    assert "`log.min_free_bytes` (default %d KiB)" % (log_cfg["min_free_bytes"] // 1024) in doc
+    assert Logger.max_file_bytes == log_cfg["max_file_bytes"]
+    assert Logger.low_water_bytes == log_cfg["min_free_bytes"]

@@ -4,7 +4,10 @@ import subprocess
 import sys
 import time
 
+import pytest
 from trackpilot_tools.mpy import ROOT
+
+pytestmark = pytest.mark.mpy  # runs the firmware under $MICROPYTHON (so make test's 32-bit pass too)
 
 sys.path.insert(0, str(ROOT / "hmi"))
 sys.path.insert(0, str(ROOT / "firmware"))
@@ -47,10 +50,12 @@ def test_monitor_shows_status_then_stale_link():
 
 
 def test_monitor_watches_a_simulated_run(tmp_path):
-    mon = _monitor(["--udp", "10111", "--count", "5", "--duration", "60"])
+    port = _free_port()  # not the default 10111: other test runs may share this machine
+    mon = _monitor(["--udp", str(port), "--count", "5", "--duration", "60"])
     time.sleep(0.5)
     sim = subprocess.run([sys.executable, "-m", "trackpilot_tools.cli", "sim", str(ROOT / "tracks/middelburg_loop.csv"),
-                          "--out", str(tmp_path), "--duration-s", "30", "--no-plots", "--udp-out"],
+                          "--out", str(tmp_path / "out"), "--duration-s", "30", "--no-plots", "--udp-out",
+                          "--udp-port", str(port), "--nmea-port", str(_free_port())],
                          capture_output=True, cwd=str(ROOT), timeout=120)
     assert sim.returncode == 0, sim.stderr.decode()[-2000:]
     out, err = mon.communicate(timeout=60)

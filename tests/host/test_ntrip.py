@@ -9,6 +9,8 @@ from pyrtcm import RTCMReader
 
 from trackpilot_tools.mpy import ROOT, run_script
 
+pytestmark = pytest.mark.mpy  # runs the firmware under $MICROPYTHON (so make test's 32-bit pass too)
+
 
 def _crc24q(data):
     crc = 0
@@ -32,11 +34,16 @@ def rtcm_frame(msg_type, body_len):
 
 
 class Caster:
-    """Answers one NTRIP request per connection: the stream for MOUNT, a source table otherwise."""
+    """Answers one NTRIP request per connection: the stream for MOUNT, a source table otherwise.
+    `answers`: the status/header sent on each connection in turn (the last one repeats); an answer
+    without " 200" closes the connection. `chunk`: NTRIP 2.0 chunked transfer with chunks of this
+    many bytes."""
 
-    def __init__(self, frames, garbage=b""):
+    def __init__(self, frames, garbage=b"", answers=(b"ICY 200 OK\r\n\r\n",), chunk=0):
         self.frames = frames
         self.garbage = garbage
+        self.answers = list(answers)
+        self.chunk = chunk
         self.sock = socket.socket()
         self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
         self.sock.bind(("127.0.0.1", 0))
@@ -48,10 +55,14 @@ class Caster:
 
     def serve(self):
         self.sock.settimeout(15)
-        try:
-            conn, _ = self.sock.accept()
-        except OSError:
-            return
+        for n in range(len(self.answers)):
+            try:
+                conn, _ = self.sock.accept()
+            except OSError:
+                return
+            self.serve_one(conn, self.answers[n])
+
+    def serve_one(self, conn, answer):
         with conn:
             req = b""
             while b"\r\n\r\n" not in req:
@@ -63,10 +74,16 @@ class Caster:
             if not req.startswith(b"GET /MOUNT "):
                 conn.sendall(b"SOURCETABLE 200 OK\r\nContent-Type: text/plain\r\n\r\nSTR;MOUNT;\r\nENDSOURCETABLE\r\n")
                 return
-            conn.sendall(b"ICY 200 OK\r\n\r\n")
-            conn.sendall(self.garbage)
-            for f in self.frames:
-                conn.sendall(f)
+            conn.sendall(answer)
+            if b" 200" not in answer:
+                return
+            body = self.garbage + b"".join(self.frames)
+            if self.chunk:
+                for i in range(0, len(body), self.chunk):
+                    part = body[i : i + self.chunk]
+                    conn.sendall(b"%x\r\n" % len(part) + part + b"\r\n")
+            else:
+                conn.sendall(body)
             try:
                 conn.recv(1)
             except OSError:
@@ -100,3 +117,41 @@ def test_unknown_mountpoint_is_reported():
     out = run_script(ROOT / "tests/host/_ntrip_client_mpy.py", [caster.port, "NOPE", 1], timeout=60).stdout.decode()
     assert "frames 0" in out
     assert "not found" in out, out
+
+
+def _run(caster, want, *extra):
+    out = run_script(ROOT / "tests/host/_ntrip_client_mpy.py", [caster.port, "MOUNT", want, *extra],
+                     timeout=60).stdout.decode()
+    lines = dict(line.split(" ", 1) for line in out.strip().splitlines() if not line.startswith("event"))
+    return out, lines
+
+
+CHUNKED_OK = b"HTTP/1.1 200 OK\r\nContent-Type: gnss/data\r\nTransfer-Encoding: chunked\r\n\r\n"
+
+
+@pytest.mark.parametrize("chunk", [64, 256, 512, 1024])
+def test_ntrip2_chunked_transfer_all_frames_arrive(chunk):
+    """Issue 14.8: chunk-size lines landed inside RTCM frames: 3/15/27/34 of 40 arrived."""
+    frames = [rtcm_frame(1077 + 10 * (i % 4), 40 + (i * 29) % 200) for i in range(40)]
+    out, lines = _run(Caster(frames, answers=[CHUNKED_OK], chunk=chunk), len(frames))
+    assert lines["frames"] == "40", out
+    assert lines["bytes"] == str(sum(len(f) for f in frames)), out
+    assert lines["bad_crc"] == "0", out
+
+
+def test_icy_status_line_without_blank_line_is_accepted():
+    """Issue 14.9: many NTRIP 1.0 casters send only "ICY 200 OK\\r\\n"."""
+    frames = [rtcm_frame(1005, 19), rtcm_frame(1077, 120)]
+    out, lines = _run(Caster(frames, answers=[b"ICY 200 OK\r\n"]), len(frames))
+    assert lines["frames"] == "2", out
+    assert "without end of header" not in out
+
+
+def test_non_utf8_refusal_is_logged_and_the_client_reconnects():
+    """Issue 14.6: a status line with a Latin-1 byte killed the NTRIP task for good."""
+    frames = [rtcm_frame(1005, 19)]
+    caster = Caster(frames, answers=[b"HTTP/1.0 403 Zugriff f\xfcr MP\r\n\r\n", b"ICY 200 OK\r\n\r\n"])
+    out, lines = _run(caster, 1, "keep")
+    assert "event caster refused: HTTP/1.0 403 Zugriff f?r MP" in out, out
+    assert lines["frames"] == "1", out
+    assert len(caster.requests) == 2

@@ -8,6 +8,8 @@ import pytest
 from trackpilot_tools.mpy import ROOT
 from trackpilot_tools.replay_cmd import run_replay
 
+pytestmark = pytest.mark.mpy  # runs the firmware under $MICROPYTHON (so make test's 32-bit pass too)
+
 sys.path.insert(0, str(ROOT / "firmware"))
 
 

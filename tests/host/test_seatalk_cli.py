@@ -12,6 +12,8 @@ sys.path.insert(0, str(ROOT / "firmware"))
 from trackpilot_tools import cli  # noqa: E402
 from trackpilot_tools.seatalk_cmd import make_capture, run_decode, vector_datagrams  # noqa: E402
 
+pytestmark = pytest.mark.mpy  # runs the firmware under $MICROPYTHON (so make test's 32-bit pass too)
+
 
 def _lines(out):
     return [json.loads(x) for x in out.splitlines() if x.strip()]

@@ -10,6 +10,8 @@ sys.path.insert(0, str(ROOT / "host_tools"))
 from trackpilot_tools.sim import report  # noqa: E402
 from trackpilot_tools.sim.runner import SimRun  # noqa: E402
 
+pytestmark = pytest.mark.mpy  # runs the firmware under $MICROPYTHON (so make test's 32-bit pass too)
+
 TRACK = ROOT / "tracks" / "middelburg_loop.csv"
 
 

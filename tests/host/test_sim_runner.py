@@ -10,6 +10,8 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "host_tools"))
 from trackpilot_tools.sim.runner import SimRun  # noqa: E402
 
+pytestmark = pytest.mark.mpy  # runs the firmware under $MICROPYTHON (so make test's 32-bit pass too)
+
 FAKE = ROOT / "tests" / "host" / "_fake_fw_mpy.py"
 TRACK = ROOT / "tracks" / "middelburg_loop.csv"
 

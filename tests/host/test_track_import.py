@@ -126,3 +126,27 @@ def test_cli_writes_a_file_the_firmware_loads(tmp_path, capsys):
     assert abs(trk.waypoints[0].speed_mps - 3 * 1852 / 3600) < 0.001
     assert args.func(args) == 1  # exists: not replaced without --force
     assert "--force" in capsys.readouterr().err
+
+
+def test_kmz_bomb_is_refused_without_unpacking_it(tmp_path):
+    """Issue 14.15: a 300 KB KMZ unpacking to 300 MB took 945 MB of RAM. The .kml is read at most
+    KMZ_MAX_UNZIPPED_BYTES (+1) far: a clear error, memory bounded by the cap."""
+    import tracemalloc
+
+    bomb = tmp_path / "bomb.kmz"
+    pad = b"<!--" + b" " * (1024 * 1024) + b"-->\n"
+    with zipfile.ZipFile(bomb, "w", zipfile.ZIP_DEFLATED) as z:
+        with z.open("doc.kml", "w") as f:
+            f.write(b'<?xml version="1.0"?><kml xmlns="http://www.opengis.net/kml/2.2">')
+            for _ in range(40):  # 40 MB unpacked
+                f.write(pad)
+            f.write(b"</kml>")
+    assert bomb.stat().st_size < 200_000
+    tracemalloc.start()
+    try:
+        with pytest.raises(TI.TrackImportError, match="unpacks to more than 16 MB"):
+            TI.import_track(bomb)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 3 * TI.KMZ_MAX_UNZIPPED_BYTES, peak

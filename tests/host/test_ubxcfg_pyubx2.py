@@ -2,10 +2,13 @@
 encoder (`UBXMessage.config_set`), and every key id equals pyubx2's configuration database."""
 import json
 
+import pytest
 from pyubx2 import SET, UBXMessage, UBXReader
 from pyubx2.ubxtypes_configdb import UBX_CONFIG_DATABASE
 
 from trackpilot_tools.mpy import FIRMWARE_DIR, ROOT, run_script
+
+pytestmark = pytest.mark.mpy  # runs the firmware under $MICROPYTHON (so make test's 32-bit pass too)
 
 SCRIPT = r'''
 import sys

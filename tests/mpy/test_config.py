@@ -63,3 +63,48 @@ def test_save_is_atomic_and_refuses_bad():
     cfg, _ = C.load(path)
     eq(cfg["modes"]["xte_alarm_m"], 3.0)
     true("config.json.tmp" not in os.listdir(DIR))
+
+
+def test_non_utf8_file_falls_back_and_never_raises():
+    """Issue 14.5: a Latin-1 "Bär" as boat name used to raise UnicodeError at every boot."""
+    path = _fresh()
+    with open(path, "wb") as f:
+        f.write(b'{"boat": {"name": "B\xe4r"}}')
+    cfg, problems = C.load(path)
+    eq(cfg, C.defaults())
+    true(C.rejected(problems), problems)
+    true("UTF-8" in "; ".join(problems), problems)
+    # a good file afterwards is taken, and then a broken one falls back to it
+    _write(path, '{"boat": {"name": "Baer"}}')
+    cfg, problems = C.load(path)
+    eq(cfg["boat"]["name"], "Baer")
+    false_ = C.rejected(problems)
+    eq(false_, False)
+    with open(path, "wb") as f:
+        f.write(b'\xff\xfe{"boat"')
+    cfg, problems = C.load(path)
+    eq(cfg["boat"]["name"], "Baer")
+    true(C.rejected(problems), problems)
+
+
+def test_sender_id_0_is_refused():
+    """Issue 14.3: sender 0 is the pilot's own keypad; our keys must never look like it."""
+    true(C.validate({"pilot": {"sender_id": 0}}), "sender 0 accepted")
+    eq(C.validate({"pilot": {"sender_id": 1}}), [])
+
+
+def test_secret_values_never_in_errors():
+    """Issue 14.11: errors go to the log; a password must not."""
+    errs = "; ".join(C.validate({"ntrip": {"password": 31415926, "port": 99999999},
+                                 "hmi": {"key_file": 27182818}}))
+    true("ntrip.password" in errs and "31415926" not in errs, errs)
+    true("99999999" in errs, errs)  # ordinary values are still shown
+    true("27182818" in errs, errs)  # key_file is a path, not a secret
+    for name in ("password", "wifi_password", "api_key", "secret", "client_secret", "token", "key"):
+        true(C.is_secret(name), name)
+    for name in ("key_file", "user", "host", "keepalive_ms", "btn_ack"):
+        eq(C.is_secret(name), False)
+    path = _fresh()
+    _write(path, '{"ntrip": {"password": 31415926}}')
+    cfg, problems = C.load(path)
+    true("31415926" not in "; ".join(problems), problems)

@@ -129,12 +129,15 @@ def test_new_itow_closes_previous_epoch():
 
 
 def test_eoe_takes_over_when_seen():
-    # a real F9P sends NAV-PVT first; once NAV-EOE is seen it closes the epochs
+    # a real F9P sends NAV-PVT first; NAV-EOE closes the epochs
     fix, gp = _parser()
     t.eq(_feed(gp, pvt(1000) + relpos(1000) + hppos(1000) + eoe(1000)), 1)
-    t.eq(gp.stats.late, 3)  # closed on PVT before EOE was known
-    t.eq(_feed(gp, pvt(1200) + relpos(1200) + hppos(1200)), 0)
-    t.eq(_feed(gp, eoe(1200)), 1)
+    t.eq(gp.stats.late, 3)  # closed on PVT before the order was known
+    t.eq(_feed(gp, pvt(1200) + relpos(1200) + hppos(1200) + eoe(1200)), 1)
+    t.eq(gp.stats.late, 6)  # late twice: now the set waits for them
+    t.eq(_feed(gp, pvt(1400) + relpos(1400) + hppos(1400)), 0)
+    t.eq(_feed(gp, eoe(1400)), 1)
+    t.eq(gp.stats.late, 6)
     t.true(fix.sources & (1 << gnss.K_NAV_RELPOSNED))
     t.true(fix.sources & (1 << gnss.K_NAV_EOE))
     t.eq(fix.lat_hp, -42)
@@ -181,10 +184,13 @@ def test_nmea_rtk_quality_and_utc_epochs():
     t.near(fix.sog_mps, 3.0 * 1852 / 3600, 1e-5)
     t.near(fix.cog_deg, 271.5, 1e-4)
     t.true(fix.vel_valid)
-    t.eq(_feed(gp, gga0), 1)
-    t.eq(fix.rtk, RTK_FLOAT)
-    t.eq(fix.lat_e7, -514900000)
-    t.eq(gp.flush(0), 1)
+    seen = []
+    gp.on_epoch = lambda: seen.append((fix.rtk, fix.lat_e7))
+    # two GGA-led epochs closed by a new time: the learnt set is now {GGA}, which closes
+    # the no-fix epoch at once (no wait for the next second)
+    t.eq(_feed(gp, gga0), 2)
+    t.eq(seen[0], (RTK_FLOAT, -514900000))
+    t.eq(gp.flush(0), 0)
     t.eq(fix.rtk, RTK_NONE)
     t.true(not fix.pos_valid)
     t.eq(gp.stats.bad_field, 0)  # a no-fix GGA with empty fields is normal, not bad
@@ -339,3 +345,93 @@ def test_gpsd_comment_lines():
     fix, gp = _parser()
     _feed(gp, b"# x $GPHDT,1.0,T*00\n")
     t.eq(gp.stats.comments, 0)
+
+
+def test_hppos_high_precision_parts_outside_99_are_rejected():
+    """Issue 14.13: lat_hp/lon_hp are -99..99 (1e-9 deg); a frame outside is not taken."""
+    for lat_hp, lon_hp in ((120, 0), (0, -100), (-128, 127)):
+        fix, gp = _parser()
+        data = relpos(1000) + hppos(1000, lat_e7=514900777, lat_hp=lat_hp, lon_hp=lon_hp) + pvt(1000)
+        t.eq(_feed(gp, data), 1)
+        t.true(fix.pos_valid)
+        t.true(fix.lat_e7 != 514900777, "HPPOSLLH with lat_hp %d lon_hp %d taken" % (lat_hp, lon_hp))
+        t.eq((fix.lat_hp, fix.lon_hp), (0, 0))
+    fix, gp = _parser()
+    t.eq(_feed(gp, relpos(1000) + hppos(1000, lat_e7=514900777, lat_hp=99, lon_hp=-99) + pvt(1000)), 1)
+    t.eq((fix.lat_e7, fix.lat_hp, fix.lon_hp), (514900777, 99, -99))
+
+
+_ORDERS = (("PVT", "REL", "HP"), ("PVT", "HP", "REL"), ("REL", "PVT", "HP"),
+           ("REL", "HP", "PVT"), ("HP", "PVT", "REL"), ("HP", "REL", "PVT"),
+           ("PVT", "REL"), ("REL", "PVT"))
+
+
+def _epoch_bytes(order, itow, with_eoe):
+    out = b""
+    for name in order:
+        if name == "PVT":
+            out += pvt(itow)
+        elif name == "REL":
+            out += relpos(itow, heading_e5=4500000 + itow % 1000)
+        else:
+            out += hppos(itow)
+    return out + (eoe(itow) if with_eoe else b"")
+
+
+def test_any_order_with_or_without_eoe_at_any_rate():
+    # issue 12: a PVT-first stream without EOE dropped every RELPOSNED as late before
+    for order in _ORDERS:
+        for with_eoe in (False, True):
+            for period_ms in (40, 100, 200, 1000):
+                fix, gp = _parser()
+                seen = []
+                gp.on_epoch = lambda: seen.append((fix.itow_ms, fix.heading_valid, fix.lat_hp))
+                lag = []
+                for k in range(12):
+                    itow = 100000 + k * period_ms
+                    n = _feed(gp, _epoch_bytes(order, itow, with_eoe), k * period_ms)
+                    lag.append(n)
+                    if k >= 2:  # from the third epoch: closed by its own last message
+                        t.eq(n, 1, repr((order, with_eoe, period_ms, k)))
+                        t.eq(seen[-1][0], itow)
+                        t.true(seen[-1][1], repr((order, with_eoe, period_ms, k)))
+                        t.eq(seen[-1][2], -42 if "HP" in order else 0)
+                # at most the first two epochs lose their later messages
+                t.true(gp.stats.late <= 2 * len(order), repr((order, with_eoe, gp.stats.late)))
+                t.eq(gp.interval_ms, period_ms)
+
+
+def test_nmea_only_epochs_close_on_their_last_sentence():
+    fix, gp = _parser()
+    n_last = []
+    for k in range(6):
+        hhmmss = b"1200%02d.00" % k
+        gga = nmea(b"GNGGA," + hhmmss + b",5129.4,N,00336.7,E,4,24,0.6,1.0,M,45.0,M,1.0,0000")
+        rmc = nmea(b"GNRMC," + hhmmss + b",A,5129.4,N,00336.7,E,3.0,271.5,221126,,,R,V")
+        _feed(gp, gga, k * 1000)
+        n_last.append(_feed(gp, rmc, k * 1000 + 30))
+    t.eq(n_last[3:], [1, 1, 1])  # the set {GGA, RMC} learnt after two epochs
+    t.eq(fix.utc_s, 43205)
+    t.eq(gp.interval_ms, 1000)
+
+
+def test_learnt_set_follows_a_changed_stream():
+    # HPPOSLLH switched off mid-run: after two short epochs the set forgets it
+    fix, gp = _parser()
+    for k in range(4):
+        _feed(gp, _epoch_bytes(("REL", "HP", "PVT"), 1000 + 200 * k, False), 200 * k)
+    closes = []
+    for k in range(4, 10):
+        closes.append(_feed(gp, _epoch_bytes(("PVT", "REL"), 1000 + 200 * k, False), 200 * k))
+    t.eq(closes[-3:], [1, 1, 1])
+    t.true(fix.heading_valid)
+
+
+def test_epoch_timeout_grows_with_a_slow_rate():
+    fix, gp = _parser(epoch_timeout_ms=150)
+    for k in range(3):  # learn a 1 Hz rate with PVT + RELPOSNED
+        _feed(gp, pvt(1000 + 1000 * k) + relpos(1000 + 1000 * k), 1000 * k)
+    t.eq(gp.interval_ms, 1000)
+    t.eq(_feed(gp, relpos(4000), 3000), 0)  # PVT of this epoch lost
+    t.eq(gp.feed(b"", 0, 3400), 0)  # 150 ms would have cut a 1 Hz epoch short
+    t.eq(gp.feed(b"", 0, 3750), 1)

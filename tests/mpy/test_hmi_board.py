@@ -143,7 +143,8 @@ def test_remote_commands_and_status_out():
     init_state(FileStore(base + ".ctr"), key, 0)
     w = Wiring(False)
     sock = Sock()
-    hmi = BoardHmi(w, {"hmi": {"boat_id": 7, "key_file": base + ".key", "counter_file": base + ".ctr"}},
+    hmi = BoardHmi(w, {"hmi": {"boat_id": 7, "key_file": base + ".key", "counter_file": base + ".ctr",
+                               "remote_enabled": True}},
                    sock=sock, status_addr=("9.9.9.9", 10111))
     tx = MemStore()
     init_state(tx, key)
@@ -151,6 +152,15 @@ def test_remote_commands_and_status_out():
     p1 = signer.sign("STANDBY")
     sock.rx = [p1, p1, b"junk", signer.sign("NEXT_WP")]
     T.eq(hmi.poll_commands(0), [("STANDBY", "remote"), ("NEXT_WP", "remote")])
+    # issue 14.10: the same key and a valid packet, but remote_enabled false (the default)
+    for enabled in ({}, {"remote_enabled": False}):
+        cfg = {"boat_id": 7, "key_file": base + ".key", "counter_file": base + ".ctr"}
+        cfg.update(enabled)
+        sock_off = Sock()
+        off = BoardHmi(w, {"hmi": cfg}, sock=sock_off, status_addr=("9.9.9.9", 10111))
+        sock_off.rx = [signer.sign("ENGAGE")]
+        T.eq(off.poll_commands(0), [])
+        T.true(any("remote_enabled" in t for _, t in off.drain_events()), "disabled: said so")
     ev = hmi.drain_events()
     T.eq(len(ev), 2)
     T.true("replay" in ev[0][1] and "truncated" in ev[1][1], repr(ev))

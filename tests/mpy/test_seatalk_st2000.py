@@ -176,13 +176,81 @@ def test_takeover_by_foreign_key_stops_commanding():
     T.eq(len(r.sent), n)  # nothing more sent
     T.true(sp.EV_TAKEOVER in r.names())
     T.eq(r.drv.steer_to(5, r.t), False)
-    # our own echo (same sender, same key) is not a takeover
+    # a hand remote with our sender id pressing the key we just sent is a person too: our own
+    # echo never reaches the driver (StLink consumes it), so no same-key window may hide it
     r2 = Rig(FakePilot(heading=50))
     r2.run(1100)
     r2.drv.engage(r2.t)
     r2.drv.on_datagram(st.encode_86(st.KEY_AUTO, 1), r2.t + 5)
     r2.run(1000)
-    T.eq(r2.drv.state, sp.ENGAGED)
+    T.eq(r2.drv.state, sp.TAKEN_OVER)
+
+
+def test_hand_remote_with_our_sender_id_wins():
+    """Issue 14.3: a Z101 with our sender id presses +1 right after our own +1."""
+    r = Rig(FakePilot(heading=50))
+    r.run(1100)
+    r.drv.engage(r.t)
+    r.run(1000)
+    r.drv.steer_to(5, r.t)
+    r.run(150)
+    T.eq(r.sent[-1], st.encode_86(st.KEY_PLUS_1, r.drv.sender_id))  # we just sent +1
+    r.drv.on_datagram(st.encode_86(st.KEY_PLUS_1, r.drv.sender_id), r.t)
+    T.eq(r.drv.state, sp.TAKEN_OVER)
+
+
+def test_in_alarm_the_driver_holds_and_never_recovers():
+    """Issue 14.1: hold() (firmware ALARM): a silent pilot is not recovered, nothing is sent."""
+    r = Rig(FakePilot(heading=50))
+    r.run(1100)
+    r.drv.engage(r.t)
+    r.run(1500)
+    r.drv.steer_to(10, r.t)
+    r.drv.hold(r.t, "test")
+    n = len(r.sent)
+    r.pilot.hang = "silent"
+    r.run(20000)
+    T.eq(len(r.sent), n)
+    T.eq(r.drv.state, sp.HOLDING)
+    T.true(sp.EV_HANG not in r.names(), r.names())
+    T.true(sp.EV_STATUS_LOST in r.names())
+    # a person's key while holding is still a takeover
+    r.drv.on_datagram(st.encode_86(st.KEY_STANDBY, 0), r.t)
+    T.eq(r.drv.state, sp.TAKEN_OVER)
+
+
+def test_our_auto_after_a_takeover_is_answered_with_standby():
+    """Issue 14.2: the person's Standby is seen, then our Auto (already in flight) lands."""
+    r = Rig(FakePilot(heading=50))
+    r.run(1100)
+    r.drv.engage(r.t)
+    r.run(1500)
+    T.eq(r.drv.state, sp.ENGAGED)
+    r.drv.on_sent(st.encode_86(st.KEY_AUTO, 1), r.t)  # our Auto went on the bus
+    r.drv.on_datagram(st.encode_86(st.KEY_STANDBY, 0), r.t + 5)  # the person's Standby
+    T.eq(r.drv.state, sp.TAKEN_OVER)
+    r.pilot.mode = st.MODE_STANDBY
+    r.run(1200)
+    r.pilot.mode = st.MODE_AUTO  # our Auto applied after theirs
+    n = len(r.sent)
+    r.run(3000)
+    T.true(sp.EV_OWN_AUTO_UNDONE in r.names(), r.names())
+    T.eq(r.sent[n], st.encode_86(st.KEY_STANDBY, 1))
+    T.eq(r.pilot.mode, st.MODE_STANDBY)
+    # but a person's own Auto after the takeover stays
+    r2 = Rig(FakePilot(heading=50))
+    r2.run(1100)
+    r2.drv.engage(r2.t)
+    r2.run(1500)
+    r2.drv.on_sent(st.encode_86(st.KEY_AUTO, 1), r2.t)
+    r2.drv.on_datagram(st.encode_86(st.KEY_AUTO, 0), r2.t + 5)
+    n = len(r2.sent)
+    r2.pilot.mode = st.MODE_STANDBY
+    r2.run(1200)
+    r2.pilot.mode = st.MODE_AUTO
+    r2.run(3000)
+    T.eq(len(r2.sent), n)
+    T.true(sp.EV_OWN_AUTO_UNDONE not in r2.names())
 
 
 def test_takeover_by_unasked_mode_change():

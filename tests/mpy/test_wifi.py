@@ -151,6 +151,12 @@ def test_config_section_and_status_datagram():
     t.eq(cfg["wifi"]["enabled"], False)
     cfg["wifi"]["ssid"] = "boat-4g"
     t.eq(config.validate(cfg), [])
+    cfg["wifi"]["password"] = 31415926
+    cfg["wifi"]["ap_password"] = 27182818
+    errors = config.validate(cfg)
+    t.eq(len(errors), 2)
+    t.true(not any("31415926" in e or "27182818" in e for e in errors), errors)  # secrets
+    cfg["wifi"]["password"] = cfg["wifi"]["ap_password"] = ""
     try:
         from tphmi.status import HmiStatus, decode_status, encode_status
     except ImportError:
@@ -180,8 +186,17 @@ def test_app_starts_ntrip_once_the_link_is_up():
     net = FakeNetwork()
     w.wifi = wifi.WifiLink(_cfg(), net)
     started = []
-    app._ntrip_started = False
-    app._start_ntrip = lambda: started.append(w.t)
+
+    class _Task:
+        def done(self):
+            return False
+
+    def fake_start():
+        started.append(w.t)
+        app.ntrip_task = _Task()
+
+    app.ntrip_task = None
+    app.start_ntrip = fake_start
 
     async def scenario():
         task = asyncio.create_task(app.task_wifi())

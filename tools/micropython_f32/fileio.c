@@ -1,5 +1,6 @@
 // trackpilot f32 port: POSIX file objects for open(), sys.stdin/stdout/stderr (+ .buffer),
 // and the HAL console functions.
+#include <poll.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <string.h>
@@ -96,8 +97,33 @@ static mp_uint_t file_ioctl(mp_obj_t o_in, mp_uint_t request, uintptr_t arg, int
             return 0;
         case MP_STREAM_GET_FILENO:
             return o->fd;
-        case MP_STREAM_POLL:
-            return arg & (MP_STREAM_POLL_RD | MP_STREAM_POLL_WR);
+        case MP_STREAM_POLL: { // select.poll: ask the descriptor, without waiting
+            struct pollfd pfd = {o->fd, 0, 0};
+            if (arg & MP_STREAM_POLL_RD) {
+                pfd.events |= POLLIN;
+            }
+            if (arg & MP_STREAM_POLL_WR) {
+                pfd.events |= POLLOUT;
+            }
+            if (poll(&pfd, 1, 0) < 0) {
+                *errcode = errno;
+                return MP_STREAM_ERROR;
+            }
+            mp_uint_t ready = 0;
+            if (pfd.revents & POLLIN) {
+                ready |= MP_STREAM_POLL_RD;
+            }
+            if (pfd.revents & POLLOUT) {
+                ready |= MP_STREAM_POLL_WR;
+            }
+            if (pfd.revents & POLLERR) {
+                ready |= MP_STREAM_POLL_ERR;
+            }
+            if (pfd.revents & POLLHUP) {
+                ready |= MP_STREAM_POLL_HUP;
+            }
+            return ready;
+        }
         default:
             *errcode = MP_EINVAL;
             return MP_STREAM_ERROR;

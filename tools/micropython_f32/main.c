@@ -3,7 +3,8 @@
 //   micropython-f32 [-X heapsize=N[k|m]] [-c CODE | SCRIPT.py] [ARGS...]
 //
 // Runs a script (or CODE) with the MicroPython core built for single-precision floats.
-// sys.path = [script dir (or '' for -c)] + MICROPYPATH entries (colon separated).
+// sys.path = [script dir (or '' for -c)] + MICROPYPATH entries (colon separated) + the lib/
+// folder beside the binary.
 // An uncaught exception prints a traceback to stderr and exits 1; sys.exit(n) exits n.
 #include <errno.h>
 #include <stdio.h>
@@ -162,6 +163,18 @@ int main(int argc, char **argv) {
         size_t n = colon ? (size_t)(colon - mpath) : strlen(mpath);
         mp_obj_list_append(mp_sys_path, mp_obj_new_str_via_qstr(mpath, n));
         mpath = colon ? colon + 1 : NULL;
+    }
+
+    // Then the lib/ folder beside the binary (asyncio from PyPI, put there by the build script).
+    static char exe_path[4096];
+    ssize_t exe_len = readlink("/proc/self/exe", exe_path, sizeof(exe_path) - 5);
+    if (exe_len > 0) {
+        exe_path[exe_len] = '\0';
+        char *slash = strrchr(exe_path, '/');
+        if (slash != NULL) {
+            strcpy(slash + 1, "lib");
+            mp_obj_list_append(mp_sys_path, mp_obj_new_str_from_cstr(exe_path));
+        }
     }
 
     // sys.argv: the script (or '-c') and the remaining arguments.

@@ -112,7 +112,7 @@
 #define MICROPY_PY_HASHLIB_SHA1             (0)
 #define MICROPY_PY_HASHLIB_MD5              (0)
 #define MICROPY_PY_RE                       (0)
-#define MICROPY_PY_SELECT                   (0)
+#define MICROPY_PY_SELECT                   (0) // our own select.poll: modselect.c
 #define MICROPY_PY_ASYNCIO                  (0)
 #define MICROPY_PY_DEFLATE                  (0)
 #define MICROPY_PY_FRAMEBUF                 (1) // modframebuf.c, if the font header was generated

@@ -81,6 +81,7 @@ class Boat:
         self.u_mps = u_mps
         self.v_lee_mps = 0.0
         self.rudder_deg = 0.0
+        self.rudder_eff_deg = 0.0  # the rudder angle the flow has caught up with (rudder_lag_s)
         self.rpm = rpm
         self.vel_e = self.vel_n = 0.0
         self._update_outputs()
@@ -124,7 +125,12 @@ class Boat:
 
         wa_spd, wa_ang = self.apparent_wind()
         r_wind = -self.env.wind["yaw_coeff_degps_per_mps2"] * wa_spd * wa_spd * math.sin(wa_ang * D2R)
-        r_ss = K * rudder_deg + r_wind
+        lag = p.get("rudder_lag_s", 0.0)
+        if lag > 0.0:
+            self.rudder_eff_deg = rudder_deg + (self.rudder_eff_deg - rudder_deg) * math.exp(-dt_s / lag)
+        else:
+            self.rudder_eff_deg = rudder_deg
+        r_ss = K * self.rudder_eff_deg + r_wind
         a = math.exp(-dt_s / T)
         r0 = self.r_degps
         self.r_degps = r_ss + (r0 - r_ss) * a
@@ -134,6 +140,7 @@ class Boat:
 
         frac = min(1.0, abs(rudder_deg) / 30.0)
         u_tgt = interp_map(p["rpm_speed_map"], rpm) * (1.0 - p["yaw_speed_loss"] * frac * frac)
+        u_tgt *= p.get("speed_map_scale", 1.0)
         self.u_mps = u_tgt + (self.u_mps - u_tgt) * math.exp(-dt_s / p["surge_tau_s"])
         # leeway: the hull drifts sideways through the water with the apparent crosswind
         air_stbd = wa_spd * math.sin(wa_ang * D2R)  # component of the wind coming from starboard

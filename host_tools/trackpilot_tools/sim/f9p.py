@@ -1,12 +1,15 @@
-"""The simulated u-blox ZED-F9P (dual antenna, moving base): 5 Hz epochs of NAV-RELPOSNED,
-NAV-HPPOSLLH, NAV-PVT (in that order, NAV-PVT last), optionally NMEA GGA/RMC before them, with RTK
-noise, float/single episodes, heading loss, dropouts and latency.
+"""The simulated u-blox ZED-F9P (dual antenna, moving base): epochs at `rate_hz` (1-25 Hz) of
+NAV-RELPOSNED, NAV-HPPOSLLH, NAV-PVT (`order` relpos_first, NAV-PVT last) or NAV-PVT first
+(`pvt_first`), optionally NAV-EOE after them (`eoe`) and NMEA GGA/RMC before them, with RTK
+noise, float/single episodes, heading loss, dropouts and latency. CFG-VALSET frames written to it
+(`on_rx`) are answered with ACK-ACK unless `answer_valset` is false.
 
 `epoch(t_ms, truth)` is called at each epoch instant with the truth there; it returns
 (delivery_t_ms, bytes) or None during a dropout. Fault episodes are switched with `set_fault`.
 """
 import datetime
 import math
+import struct
 
 from . import nmea_enc, ubx_enc
 from .geodesy import deg_to_e7_hp
@@ -42,6 +45,35 @@ class F9P:
         self.last_tx_end_ms = 0
         self.num_sv = params["num_sv"]
         self.epochs = 0
+        self.valsets = 0  # CFG-VALSET frames received
+        self._rx = bytearray()
+
+    def on_rx(self, t_ms, data):
+        """Bytes the firmware wrote to the receiver; returns (delivery_t_ms, answer) or None.
+        Each CFG-VALSET frame gets an ACK-ACK (if `answer_valset`); other bytes are ignored."""
+        self._rx += data
+        out = bytearray()
+        buf = self._rx
+        while True:
+            i = buf.find(b"\xb5\x62")
+            if i < 0:
+                del buf[:max(0, len(buf) - 1)]
+                break
+            del buf[:i]
+            if len(buf) < 8:
+                break
+            n = buf[4] | (buf[5] << 8)
+            if len(buf) < n + 8:
+                break
+            cls, mid = buf[2], buf[3]
+            del buf[:n + 8]
+            if cls == 0x06 and mid == 0x8A:
+                self.valsets += 1
+                if self.p.get("answer_valset", True):
+                    out += ubx_enc.frame(0x05, 0x01, bytes((cls, mid)))
+        if not out:
+            return None
+        return t_ms + 10, bytes(out)
 
     def set_fault(self, name, on, t_ms):
         if on:
@@ -142,16 +174,19 @@ class F9P:
                                 p["hmsl_m"], p["geoid_sep_m"], 1.0 if carr else None)
             out += nmea_enc.rmc(utc, lat_e7, lat_hp, lon_e7, lon_hp, sol, g_speed, head_mot)
         if p["ubx"]:
-            out += ubx_enc.nav_relposned(
+            rel = ubx_enc.nav_relposned(
                 itow, rel_n, rel_e, rel_d, B, int(round(heading * 1e5)) if hv else 0,
                 100, 100, 150, 100, int(heading_sd * 1e5) if hv else 18000000, rp_flags)
-            out += ubx_enc.nav_hpposllh(itow, lon_e7, lat_e7, lon_hp, lat_hp, height_mm, hmsl_mm,
+            hp = ubx_enc.nav_hpposllh(itow, lon_e7, lat_e7, lon_hp, lat_hp, height_mm, hmsl_mm,
                                         h_acc_01mm=h_acc_mm * 10, v_acc_01mm=h_acc_mm * 15)
-            out += ubx_enc.nav_pvt(
+            pvt = ubx_enc.nav_pvt(
                 itow, utc, 3, pvt_flags, self.num_sv, lon_e7, lat_e7, height_mm, hmsl_mm, h_acc_mm,
                 int(h_acc_mm * 1.5), int(round(vel_n * 1000)), int(round(vel_e * 1000)),
                 int(round(vel_d * 1000)), int(round(g_speed * 1000)), int(round(head_mot * 1e5)),
                 int(p["vel_sd_mps"] * 1000), 500000 if g_speed > 0.2 else 18000000)
+            out += (pvt + rel + hp) if p.get("order") == "pvt_first" else (rel + hp + pvt)
+            if p.get("eoe"):
+                out += ubx_enc.frame(0x01, 0x61, struct.pack("<I", itow))
         self.epochs += 1
         lat_ms = self.rng.uniform(*p["latency_ms"])
         tx_ms = len(out) * 10 * 1000.0 / p["baud"]

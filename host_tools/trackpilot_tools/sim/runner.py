@@ -57,13 +57,19 @@ class SimRun:
     def __init__(self, track_path, out_dir, seed=1, law="los", scenario="calm", faults=(),
                  params=None, param_file=None, overrides=None, duration_s=None, realtime=False,
                  realtime_speed=1.0, fw_config=None, reengage_s=0.0, quiet=True,
-                 stop_after_finish_s=5.0, max_xte_stop_m=80.0, fw_script=None, udp_out=None):
+                 stop_after_finish_s=5.0, max_xte_stop_m=80.0, fw_script=None, udp_out=None,
+                 fw_config_bytes=None):
         self.track_path = Path(track_path)
         self.udp_out = None
-        if udp_out:  # (status port, NMEA port) on 127.0.0.1, as the boat would broadcast them
+        if udp_out:  # (host, status port, NMEA port), as the boat would send them; (ports) = localhost
             import socket
 
-            self.udp_out = (socket.socket(socket.AF_INET, socket.SOCK_DGRAM), udp_out[0], udp_out[1])
+            if len(udp_out) == 2:
+                udp_out = ("127.0.0.1",) + tuple(udp_out)
+            sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+            sock.setsockopt(socket.SOL_SOCKET, socket.SO_BROADCAST, 1)  # x.x.x.255 for OpenCPN on the LAN
+            self.udp_out = (sock, udp_out[1], udp_out[2])
+            self.udp_host = udp_out[0]
         self.fw_script = Path(fw_script) if fw_script else SIM_MAIN
         self.out = Path(out_dir)
         self.seed = seed
@@ -86,6 +92,9 @@ class SimRun:
         self.p = params
         self.faults = [scenarios.parse_fault(f) if isinstance(f, str) else f for f in faults]
         self.fw_config_extra = fw_config or {}
+        # the firmware's config.json exactly as given, not validated here (bad-config tests: the
+        # firmware must reject it itself); the simulated motor then uses the defaults
+        self.fw_config_bytes = fw_config_bytes
 
         _fw_import()
         from trackpilot.track import parse_track_csv
@@ -306,6 +315,7 @@ class SimRun:
         elif name == "motor_link_loss":
             self.motor.link_lost = on
         elif name == "estop":
+            self.estop_on = on
             self.send_input(t_ms, "estop=%d" % (1 if on else 0))
         elif name == "reset":
             self._reset_pending = True
@@ -313,8 +323,27 @@ class SimRun:
             self.send_input(t_ms, "button=STANDBY")
         elif name == "button_engage":
             self.send_input(t_ms, "button=ENGAGE")
+        elif name == "button_ack":
+            self.send_input(t_ms, "button=ACK")
+        elif name == "remote_key_echo":
+            self._remote_echo(t_us, self.pilot.keys_by_sender.get(self._fw_sender_id(), 0))
         if on and dur_s:
             self.sched.at(t_us + int(dur_s * 1e6), self._fault, name, False, None)
+
+    def _fw_sender_id(self):
+        return self.fw_config_extra.get("pilot", {}).get("sender_id", 1)
+
+    def _remote_echo(self, t_us, seen):
+        """Wait for the firmware's next keystroke, then the hand remote sends the same key with the
+        same sender id 0.1 s later."""
+        sid = self._fw_sender_id()
+        if self.pilot.keys_by_sender.get(sid, 0) > seen and getattr(self.pilot, "last_key", None):
+            _, key, _ = self.pilot.last_key
+            self.sched.at(t_us + 100_000, lambda t: self.bus.send("remote", stcodec.encode_86(sid, key), t))
+            self.events.append((t_us / 1e6, "fault", "hand remote repeats key %d as sender %d" % (key, sid)))
+            return
+        if t_us < (self.duration_s + 1) * 1e6:
+            self.sched.at(t_us + 10_000, self._remote_echo, seen)
 
     # ------------------------------------------------------------------ firmware process
     def _fw_config(self):
@@ -370,6 +399,10 @@ class SimRun:
             if dev == P.DEV_SEATALK:
                 pairs = [(data[i], chr(data[i + 1])) for i in range(0, len(data) - 1, 2)]
                 self.bus.write_fw(t_ms * 1000, pairs)
+            elif dev == P.DEV_GNSS:  # receiver configuration (CFG-VALSET)
+                got = self.f9p.on_rx(t_ms, data)
+                if got:
+                    self.deliver(P.DEV_GNSS, got[0] * 1000, got[1])
             elif dev == P.DEV_MOTOR:
                 got = self.motor.feed(t_ms, data)
                 if got:
@@ -394,7 +427,7 @@ class SimRun:
 
     def _udp_send(self, data, port):
         try:
-            self.udp_out[0].sendto(data, ("127.0.0.1", port))
+            self.udp_out[0].sendto(data, (self.udp_host, port))
         except OSError:
             pass  # nobody listening is fine
 
@@ -420,13 +453,21 @@ class SimRun:
         if self.data_dir.exists():
             shutil.rmtree(self.data_dir)
         self.data_dir.mkdir()
-        cfg_partial, cfg_full = self._fw_config()
-        (self.out / "config.json").write_text(json.dumps(cfg_partial, indent=2))
+        if self.fw_config_bytes is not None:
+            _fw_import()
+            from trackpilot import config as fwconfig
+
+            cfg_full = fwconfig.defaults()
+            (self.out / "config.json").write_bytes(self.fw_config_bytes)
+        else:
+            cfg_partial, cfg_full = self._fw_config()
+            (self.out / "config.json").write_text(json.dumps(cfg_partial, indent=2))
         (self.out / "sim_params.json").write_text(json.dumps(self.p, indent=2))
         from .motor_dev import MotorDevice
 
         self.motor = MotorDevice(cfg_full["motor"], component_rng(self.seed, "motor"))
         self._reset_pending = False
+        self.estop_on = False  # the E-stop input level, as the board's pin holds it
         self.pilot.silent = False
 
         self.sched.at(0, self._gnss_epoch)
@@ -501,6 +542,8 @@ class SimRun:
         self.deliv = []
         self.mode = None
         self._start_fw(t_ms, "soft")
+        if self.estop_on:  # the pin is still held: the new process reads it like the board would
+            self.send_input(t_ms, "estop=1")
 
     # ------------------------------------------------------------------ results
     def _write_truth(self):

@@ -39,6 +39,9 @@ FAULTS = {
     "st_other_talker": (True, "another instrument sends wind datagrams without waiting for idle (collisions)"),
     "motor_link_loss": (True, "the motor controller stops replying and ignores setpoints"),
     "estop": (True, "E-stop input active"),
+    "remote_key_echo": (False, "a hand remote with the firmware's sender id repeats the firmware's next "
+                               "keystroke 0.1 s after it (a person's key that looks like our own echo)"),
+    "button_ack": (False, "a person presses ACK on the HMI"),
     "reset": (False, "the firmware restarts (process restarted with the same data dir)"),
     "button_standby": (False, "STANDBY pressed on the HMI"),
     "button_engage": (False, "ENGAGE pressed on the HMI"),
@@ -46,13 +49,21 @@ FAULTS = {
 
 
 def parse_fault(text):
-    """'name@t[:d]' -> (name, t_s, d_s or None)."""
+    """'name@t[:d]' -> (name, t_s, d_s or None); ValueError with a one-line reason."""
     name, sep, when = text.partition("@")
-    if not sep or name not in FAULTS:
-        raise ValueError("fault %r: expected NAME@T[:D] with NAME one of %s" % (text, ", ".join(sorted(FAULTS))))
+    if name not in FAULTS:
+        raise ValueError("fault %r: unknown name %r; names: %s" % (text, name, ", ".join(sorted(FAULTS))))
+    if not sep:
+        raise ValueError("fault %r: give its start time, %s@T%s (T, D in seconds)"
+                         % (text, name, ":D" if FAULTS[name][0] else ""))
     t, _, d = when.partition(":")
-    t_s = float(t)
-    d_s = float(d) if d else None
+    try:
+        t_s = float(t)
+        d_s = float(d) if d else None
+    except ValueError:
+        raise ValueError("fault %r: T and D must be numbers of seconds (%s@T:D)" % (text, name)) from None
+    if t_s < 0 or (d_s is not None and d_s <= 0):
+        raise ValueError("fault %r: T must be >= 0 and D > 0 seconds" % text)
     if FAULTS[name][0] and d_s is None:
         raise ValueError("fault %r needs a duration: %s@T:D" % (text, name))
     return name, t_s, d_s

@@ -1,6 +1,7 @@
 """The simulated Raymarine ST2000+ tiller pilot.
 
-- Its own fluxgate compass: true heading + offset + slow drift (Gauss-Markov) + noise, lagged.
+- Its own fluxgate compass: true heading + offset + deviation (sin/cos of heading) + slow drift
+  (Gauss-Markov) + noise, lagged.
 - Auto: heading hold on that compass, P-D on the course error with a deadband and a slow
   auto-trim; the ram moves the rudder at a fixed rate up to the limit, with a ram deadband.
   Standby: the tiller is free (rudder back to centre).
@@ -86,7 +87,10 @@ class ST2000Sim:
     def control_step(self, dt_s, true_heading_deg):
         p = self.p
         self.drift.step(dt_s)
-        meas = true_heading_deg + p["compass_offset_deg"] + self.drift.x + self.rng.gauss(0, p["compass_noise_deg"])
+        h = math.radians(true_heading_deg)
+        dev = p.get("compass_dev_sin_deg", 0.0) * math.sin(h) + p.get("compass_dev_cos_deg", 0.0) * math.cos(h)
+        meas = (true_heading_deg + p["compass_offset_deg"] + dev + self.drift.x
+                + self.rng.gauss(0, p["compass_noise_deg"]))
         if self.compass_deg is None:
             self.compass_deg = meas % 360.0
         a = 1.0 - math.exp(-dt_s / p["compass_lag_s"]) if p["compass_lag_s"] > 0 else 1.0
@@ -146,6 +150,7 @@ class ST2000Sim:
             return
         sender, key = k
         self.keys_by_sender[sender] = self.keys_by_sender.get(sender, 0) + 1
+        self.last_key = (sender, key, t_us)
         self.sched.at(t_us + self.p["key_delay_ms"] * 1000, self._apply_key, key, sender, False)
 
     # ---------------------------------------------------------------- keys

@@ -1,0 +1,12 @@
+"""Mistakes a user can fix (a missing file, a bad option value): the CLI prints the message as one
+line, `trackpilot COMMAND: message`, and exits 2; no traceback."""
+
+
+class UserError(Exception):
+    """Raised by a command for an ordinary mistake; the text says what is wrong and how to fix it."""
+
+
+def script_error_line(exc):
+    """The last non-empty line of a failed MicroPython script's output (its own error message)."""
+    lines = [ln.strip() for ln in str(exc).splitlines() if ln.strip()]
+    return lines[-1] if lines else str(exc)

@@ -1,0 +1,64 @@
+"""Every everyday CLI mistake gives one clear line on stderr and a non-zero exit, never a traceback."""
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+TRACK = str(ROOT / "tracks" / "middelburg_loop.csv")
+
+
+def _files(tmp):
+    bad_track = tmp / "bad.csv"
+    bad_track.write_text("lat,lon\nfoo,bar\n")
+    garbage = tmp / "garbage.tpl"
+    garbage.write_bytes(bytes(range(256)) * 16)
+    not_json = tmp / "params.json"
+    not_json.write_text("{nope")
+    return {"BAD": str(bad_track), "GARBAGE": str(garbage), "NOTJSON": str(not_json)}
+
+
+# (argv, a fragment the one line must contain)
+CASES = [
+    (["sim", "nope.csv"], "no such track file"),
+    (["sim", "{BAD}"], "header lacks the column"),
+    (["sim", TRACK, "--fault", "nosuchfault@10"], "unknown name 'nosuchfault'"),
+    (["sim", TRACK, "--fault", "gnss_dropout"], "gnss_dropout@T:D"),
+    (["sim", TRACK, "--fault", "gnss_dropout@soon:5"], "must be numbers"),
+    (["sim", TRACK, "--fault", "rtk_float@10"], "needs a duration"),
+    (["sim", TRACK, "--fw-set", "guidance.nope=1"], "guidance.nope: unknown setting"),
+    (["sim", TRACK, "--fw-set", "guidance"], "expected SECTION.KEY=VALUE"),
+    (["sim", TRACK, "--fw-set", "guidance.law=zigzag"], "guidance.law"),
+    (["sim", TRACK, "--set", "boat.nope=1"], "unknown simulator parameter boat.nope"),
+    (["sim", TRACK, "--params", "/nonexistent/p.json"], "no such parameter file"),
+    (["sim", TRACK, "--params", "{NOTJSON}"], "not a JSON parameter file"),
+    (["sim", TRACK, "--duration-s", "-5"], "--duration-s must be > 0"),
+    (["replay", "nope.tpl"], "no such log"),
+    (["replay", "{GARBAGE}"], "no trackpilot log records"),
+    (["replay", "{GARBAGE}", "--set", "guidance.x=1"], "guidance.x: unknown setting"),
+    (["replay", "{GARBAGE}", "--config", "/nonexistent/c.json"], "no such configuration file"),
+    (["hmi", "preview", "--sample", "nope", "--out", "{TMP}/h"], "no sample 'nope'"),
+    (["hmi", "preview", "--status", "/nonexistent/s.json", "--out", "{TMP}/h"], "No such file"),
+    (["log", "decode", "nope.tpl"], "cannot read nope.tpl"),
+    (["log", "plot", "{GARBAGE}", "--out", "{TMP}/p"], "no trackpilot log records"),
+    (["gnss", "decode", "nope.ubx"], "no such capture file"),
+    (["seatalk", "decode", "nope.bin"], "no such capture file"),
+    (["track", "check", "nope.csv"], "No such file"),
+    (["track", "check", "{BAD}"], "header lacks the column"),
+    (["monitor", "--serial", "/dev/nonexistent-port", "--count", "1"], "cannot open serial port"),
+]
+
+
+@pytest.mark.parametrize("argv,fragment", CASES, ids=[" ".join(c[0][:3]).replace(TRACK, "TRACK") for c in CASES])
+def test_mistake_is_one_line(tmp_path, argv, fragment):
+    subs = dict(_files(tmp_path), TMP=str(tmp_path))
+    argv = [a.format(**subs) for a in argv]
+    r = subprocess.run([sys.executable, "-m", "trackpilot_tools.cli"] + argv, capture_output=True,
+                       text=True, timeout=120, cwd=str(tmp_path))
+    err_lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
+    assert r.returncode != 0, r.stdout + r.stderr
+    assert "Traceback" not in r.stderr, r.stderr
+    assert len(err_lines) == 1, r.stderr
+    assert fragment in err_lines[0], err_lines[0]
+    assert not (tmp_path / "sim_out").exists()  # a refused run writes nothing
