@@ -54,6 +54,8 @@ class App:
         self.gnss_quality_name = "none"  # fixed / float / single / none / dead-reckoning (logged)
         self.rate_reported_ms = 0  # the receiver's epoch interval last reported
         self.dr_step_ms = None  # the last control step run by the gap timer
+        self.dr_gap_s = 0.0  # the last dead-reckoned step: time since the fix, 1-sigma
+        self.dr_sigma_m = 0.0
         self.wind = mwv.MwvParser()
         pcfg = cfg["pilot"]
         odd = seatalk.ODD_KNAUF if pcfg["odd_rule"] == "knauf" else seatalk.ODD_DOTNET
@@ -344,8 +346,9 @@ class App:
             ok, why = False, "no GNSS epoch for %d ms" % ticks_diff(t_ms, self.last_epoch_ms)
             self.dr_step_ms = t_ms
         nav = self.navigation_fix(t_ms, ok, epoch, dt_s)
-        self.mm.gnss_quality(t_ms, ok, why, dr=nav is not fix)
-        self.note_quality(ok, nav is not fix)
+        dr = nav is not fix
+        self.mm.gnss_quality(t_ms, ok, why, dr=dr, bad_s=self.dr.hold_s if dr else None)
+        self.note_quality(ok, dr)
         mm = self.mm
         guiding = mm.mode == M.AUTO and not mm.holding and (not mm.degraded or mm.dead_reckoning)
         leg_before = self.progress.leg if self.progress is not None else 0
@@ -420,6 +423,8 @@ class App:
         vel = (fix.sog_mps, fix.cog_deg) if epoch and fix.vel_valid and fix.pos_valid else None
         if not dr.predict(t_ms, h, self.water_speed_cmd_mps(), vel):
             return fix
+        self.dr_gap_s = dr.gap_s(t_ms)
+        self.dr_sigma_m = dr.sigma_m
         return dr.fix
 
     def note_quality(self, ok, dead_reckoning):
@@ -433,14 +438,14 @@ class App:
             name = RTK_NAMES[fix.rtk]
         if name != self.gnss_quality_name:
             extra = ""
-            if name == "float":
-                extra = " (steering with the XTE alarm limit doubled)"
-            elif name == "dead-reckoning":
+            if name == "dead-reckoning":
                 extra = " (from the fix %.1f s ago, 1-sigma %.1f m, growing %.2f m/s)" % (
                     self.dr.gap_s(self.clock()), self.dr.sigma_m, self.dr.sigma_rate_mps)
             elif self.gnss_quality_name == "dead-reckoning":
-                extra = " (dead reckoning ended after %.1f s, 1-sigma %.1f m)" % (
-                    self.dr.gap_s(self.clock()), self.dr.sigma_m)
+                extra = " (dead reckoning ended: %.1f s, 1-sigma %.1f m)" % (
+                    self.dr_gap_s, self.dr_sigma_m)
+            if name == "float":
+                extra += " (steering with the XTE alarm limit doubled)"
             self.event("GNSS", "quality %s -> %s%s" % (self.gnss_quality_name, name, extra))
             self.gnss_quality_name = name
 
