@@ -418,6 +418,9 @@ class App:
         h = self.dr_heading(t_ms)
         if h is None:
             return fix
+        if epoch and fix.pos_valid and fix.rtk >= self.steer_min_rtk:
+            # only the dual-antenna heading is missing: the RTK position with the compass heading
+            dr.good_fix(t_ms, fix, self.water_speed_cmd_mps(), dt_s)
         # a degraded epoch's own Doppler velocity (a single fix has it to a few cm/s) beats the
         # water speed and current; its 1-2 m position does not beat dead reckoning (docs/GNSS.md)
         vel = (fix.sog_mps, fix.cog_deg) if epoch and fix.vel_valid and fix.pos_valid else None
