@@ -113,3 +113,16 @@ def test_every_receiver_variant_engages_within_2_s(canal, tmp_path, gnss, what):
         assert cfg and "done" in cfg[0], texts
     else:
         assert cfg and "FAILED" in cfg[0], texts
+
+
+def test_bridge_with_a_10_hz_pvt_first_receiver_without_eoe(canal, tmp_path):
+    """The same bridge, the receiver at 10 Hz in the real F9P's order without NAV-EOE
+    (measured: 1.27 m)."""
+    r = SimRun(canal, tmp_path / "b", seed=2, scenario="current",
+               faults=scenarios.bridge_faults(BRIDGE_T_S, 15.0),
+               overrides={"gnss": dict(scenarios.BRIDGE_GNSS["gnss"], rate_hz=10, order="pvt_first",
+                                       eoe=False)})
+    res = r.run()
+    assert res["failure"] is None and res["stop_reason"] == "finished", res["stop_reason"]
+    assert r.engage_tries == 1
+    assert _max_xte_after_start(res) <= 2.0
