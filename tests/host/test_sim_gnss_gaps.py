@@ -145,3 +145,18 @@ def test_25_hz_steers_like_5_hz(tmp_path):
         got[rate] = (r.pilot.keys_accepted, math.sqrt(sum(x * x for x in xs) / len(xs)))
     assert got[25][0] <= 1.15 * got[5][0], got
     assert got[25][1] <= got[5][1] + 0.1, got
+
+
+@pytest.mark.parametrize("float_s", [60, 120])
+def test_long_float_after_the_bridge(canal, tmp_path, float_s):
+    """A float episode of 60 / 120 s after the bridge's 15 s dropout: steered on float (XTE
+    alarm limit doubled), completes without a person (measured max |XTE| 1.81 m for both)."""
+    faults = scenarios.bridge_faults(BRIDGE_T_S, 15.0) + ["rtk_float@%g:%g" % (BRIDGE_T_S + 21, float_s)]
+    r = SimRun(canal, tmp_path / "f", seed=2, scenario="current", faults=faults,
+               overrides=dict(scenarios.BRIDGE_GNSS))
+    res = r.run()
+    assert res["failure"] is None and res["stop_reason"] == "finished", res["stop_reason"]
+    assert r.engage_tries == 1
+    modes = [v for t, n, v in res["outputs"] if n == "mode"]
+    assert "ALARM" not in modes
+    assert _max_xte_after_start(res) <= 2.0
