@@ -1,7 +1,9 @@
 """The application: the asyncio shell around the functional core.
 
-One GNSS epoch (5 Hz) is the clock of the control loop: the GNSS task feeds bytes to the parser and
-runs `control_step` once per completed epoch. Other tasks run the SeaTalk link, the motor link, the
+One GNSS epoch (5 Hz, or the receiver's measured rate) is the clock of the control loop: the GNSS
+task feeds bytes to the parser and runs `control_step` once per completed epoch; in AUTO, when
+epochs stop, the supervisor's gap timer runs it on the dead-reckoned position instead
+(docs/MODES.md "GNSS gaps"). Other tasks run the SeaTalk link, the motor link, the
 wind sensor, the inputs (buttons, E-stop, remote), the logger, telemetry and the supervisor that feeds
 the watchdog only while every task is alive.
 
@@ -464,17 +466,14 @@ class App:
                 ", configured %d ms: the control step uses the measured one" % gnss.EPOCH_MS))
 
     def gnss_watch(self, t_ms):
-        """The gap timer (every 100 ms): epochs stopped for one interval + 80 ms -> the step runs
-        on the dead-reckoned position (motor slowed at once), one step per epoch interval.
-        80 ms: above the receiver's latency jitter, and the loss is acted on within 0.5 s."""
-        if self.last_epoch_ms is None or self.mm.mode != M.AUTO:
-            return
-        iv = self.gnss.interval_ms or 200
-        if ticks_diff(t_ms, self.last_epoch_ms) < iv + 80:
-            return
-        if self.dr_step_ms is not None and ticks_diff(t_ms, self.dr_step_ms) < iv:
-            return
-        self.control_step(t_ms, epoch=False)
+        """The gap timer (every 100 ms, AUTO only): once epochs stopped, the control step runs on
+        the dead-reckoned position (motor slowed at once), one step per epoch interval
+        (deadreckon.gap_step_due)."""
+        from trackpilot.deadreckon import gap_step_due
+
+        if self.mm.mode == M.AUTO and gap_step_due(t_ms, self.last_epoch_ms, self.gnss.interval_ms,
+                                                   self.dr_step_ms):
+            self.control_step(t_ms, epoch=False)
 
     def apply_pilot(self, t_ms):
         """Turn the mode machine's pilot decision into driver commands, once per change."""

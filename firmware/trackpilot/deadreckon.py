@@ -7,6 +7,7 @@ Pure logic, no I/O: the app feeds it good fixes and, in a gap, asks for a predic
     dr.good_fix(t_ms, fix, water_mps)                # every steerable epoch (RTK fixed/float)
     ok = dr.predict(t_ms, heading_deg, water_mps, gnss_vel)   # in a gap; fills dr.fix
     dr.sigma_m                                       # 1-sigma position uncertainty, grows
+    gap_step_due(t_ms, last_epoch_ms, interval_ms, last_step_ms)   # the app's gap timer rule
 
 Velocity in a gap, best first:
  1. the receiver's own velocity (Doppler; good to a few cm/s even without RTK, e.g. in a single
@@ -27,6 +28,18 @@ from trackpilot.fix import RTK_NONE, Fix
 from trackpilot.geo import move_hp
 
 _DEG = math.pi / 180.0
+
+GAP_MARGIN_MS = 80  # above the receiver's latency jitter; with a 100 ms timer the loss is
+# acted on within 0.5 s at 5 Hz (epoch 200 ms + latency <= 100 ms + 80 ms + timer 100 ms)
+
+
+def gap_step_due(t_ms, last_epoch_ms, interval_ms, last_step_ms):
+    """The gap timer's rule: True when no epoch came for one epoch interval (200 ms until it is
+    measured) + GAP_MARGIN_MS, and the last dead-reckoned step is one interval old (or none)."""
+    iv = interval_ms if interval_ms > 0 else 200
+    if last_epoch_ms is None or ticks_diff(t_ms, last_epoch_ms) < iv + GAP_MARGIN_MS:
+        return False
+    return last_step_ms is None or ticks_diff(t_ms, last_step_ms) >= iv
 
 
 class DeadReckoner:

@@ -5,7 +5,7 @@ import math
 from tpassert import eq, near, true
 
 from trackpilot import geo
-from trackpilot.deadreckon import DeadReckoner
+from trackpilot.deadreckon import DeadReckoner, gap_step_due
 from trackpilot.fix import RTK_FIXED, RTK_NONE, Fix
 
 LAT0 = 514950000
@@ -82,3 +82,17 @@ def test_ticks_wrap():
     e, n = _en(dr.fix)
     near(n, 1.0, 0.01)
     near(dr.gap_s(900), 1.0, 1e-6)
+
+
+def test_gap_timer_rule():
+    eq(gap_step_due(1000, None, 200, None), False)  # no epoch yet
+    eq(gap_step_due(1279, 1000, 200, None), False)
+    eq(gap_step_due(1280, 1000, 200, None), True)  # one interval + 80 ms
+    eq(gap_step_due(1400, 1000, 200, 1280), False)
+    eq(gap_step_due(1480, 1000, 200, 1280), True)  # then once per interval
+    eq(gap_step_due(1179, 1000, 100, None), False)  # 10 Hz measured
+    eq(gap_step_due(1180, 1000, 100, None), True)
+    eq(gap_step_due(1280, 1000, 0, None), True)  # not measured yet: 200 ms
+    t0 = (1 << 30) - 100
+    eq(gap_step_due(180, t0, 200, None), True)  # across the ticks wrap
+    eq(gap_step_due(170, t0, 200, None), False)
