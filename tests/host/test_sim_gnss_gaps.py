@@ -145,6 +145,22 @@ def test_25_hz_steers_like_5_hz(tmp_path):
         got[rate] = (r.pilot.keys_accepted, math.sqrt(sum(x * x for x in xs) / len(xs)))
     assert got[25][0] <= 1.15 * got[5][0], got
     assert got[25][1] <= got[5][1] + 0.1, got
+    # the replay measures the step from the logged iTOWs as the app did: every command again
+    from trackpilot_tools.replay_cmd import run_replay
+
+    summary, _ = run_replay(sorted((tmp_path / "r25" / "fw" / "log").glob("*.tpl")),
+                            config=tmp_path / "r25" / "config.json")
+    assert summary["guided"] > 1000 and summary["heading_identical"] == summary["guided"], summary
+
+
+def test_bridge_run_replays_every_command(canal, tmp_path):
+    """Dead-reckoned steps are logged as the position steered by: a replay reproduces them."""
+    from trackpilot_tools.replay_cmd import run_replay
+
+    r, res, modes, events = _bridge(canal, tmp_path / "b", 15.0, seed=2)
+    summary, _ = run_replay(sorted((tmp_path / "b" / "fw" / "log").glob("*.tpl")),
+                            config=tmp_path / "b" / "config.json")
+    assert summary["guided"] > 1000 and summary["heading_identical"] == summary["guided"], summary
 
 
 @pytest.mark.parametrize("float_s", [60, 120])
