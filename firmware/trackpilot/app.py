@@ -1,7 +1,9 @@
 """The application: the asyncio shell around the functional core.
 
-One GNSS epoch (5 Hz) is the clock of the control loop: the GNSS task feeds bytes to the parser and
-runs `control_step` once per completed epoch. Other tasks run the SeaTalk link, the motor link, the
+One GNSS epoch (5 Hz, or the receiver's measured rate) is the clock of the control loop: the GNSS
+task feeds bytes to the parser and runs `control_step` once per completed epoch; in AUTO, when
+epochs stop, the supervisor's gap timer runs it on the dead-reckoned position instead
+(docs/MODES.md "GNSS gaps"). Other tasks run the SeaTalk link, the motor link, the
 wind sensor, the inputs (buttons, E-stop, remote), the logger, telemetry and the supervisor that feeds
 the watchdog only while every task is alive.
 
@@ -60,6 +62,8 @@ class App:
         self.gnss_quality_name = "none"  # fixed / float / single / none / dead-reckoning (logged)
         self.rate_reported_ms = 0  # the receiver's epoch interval last reported
         self.dr_step_ms = None  # the last control step run by the gap timer
+        self.dr_gap_s = 0.0  # the last dead-reckoned step: time since the fix, 1-sigma
+        self.dr_sigma_m = 0.0
         self.wind = mwv.MwvParser()
         pcfg = cfg["pilot"]
         odd = seatalk.ODD_KNAUF if pcfg["odd_rule"] == "knauf" else seatalk.ODD_DOTNET
@@ -373,8 +377,9 @@ class App:
             ok, why = False, "no GNSS epoch for %d ms" % ticks_diff(t_ms, self.last_epoch_ms)
             self.dr_step_ms = t_ms
         nav = self.navigation_fix(t_ms, ok, epoch, dt_s)
-        self.mm.gnss_quality(t_ms, ok, why, dr=nav is not fix)
-        self.note_quality(ok, nav is not fix)
+        dr = nav is not fix
+        self.mm.gnss_quality(t_ms, ok, why, dr=dr, bad_s=self.dr.hold_s if dr else None)
+        self.note_quality(ok, dr)
         mm = self.mm
         guiding = mm.mode == M.AUTO and not mm.holding and (not mm.degraded or mm.dead_reckoning)
         leg_before = self.progress.leg if self.progress is not None else 0
@@ -444,11 +449,16 @@ class App:
         h = self.dr_heading(t_ms)
         if h is None:
             return fix
+        if epoch and fix.pos_valid and fix.rtk >= self.steer_min_rtk:
+            # only the dual-antenna heading is missing: the RTK position with the compass heading
+            dr.good_fix(t_ms, fix, self.water_speed_cmd_mps(), dt_s)
         # a degraded epoch's own Doppler velocity (a single fix has it to a few cm/s) beats the
         # water speed and current; its 1-2 m position does not beat dead reckoning (docs/GNSS.md)
         vel = (fix.sog_mps, fix.cog_deg) if epoch and fix.vel_valid and fix.pos_valid else None
         if not dr.predict(t_ms, h, self.water_speed_cmd_mps(), vel):
             return fix
+        self.dr_gap_s = dr.gap_s(t_ms)
+        self.dr_sigma_m = dr.sigma_m
         return dr.fix
 
     def note_quality(self, ok, dead_reckoning):
@@ -462,14 +472,14 @@ class App:
             name = RTK_NAMES[fix.rtk]
         if name != self.gnss_quality_name:
             extra = ""
-            if name == "float":
-                extra = " (steering with the XTE alarm limit doubled)"
-            elif name == "dead-reckoning":
+            if name == "dead-reckoning":
                 extra = " (from the fix %.1f s ago, 1-sigma %.1f m, growing %.2f m/s)" % (
                     self.dr.gap_s(self.clock()), self.dr.sigma_m, self.dr.sigma_rate_mps)
             elif self.gnss_quality_name == "dead-reckoning":
-                extra = " (dead reckoning ended after %.1f s, 1-sigma %.1f m)" % (
-                    self.dr.gap_s(self.clock()), self.dr.sigma_m)
+                extra = " (dead reckoning ended: %.1f s, 1-sigma %.1f m)" % (
+                    self.dr_gap_s, self.dr_sigma_m)
+            if name == "float":
+                extra += " (steering with the XTE alarm limit doubled)"
             self.event("GNSS", "quality %s -> %s%s" % (self.gnss_quality_name, name, extra))
             self.gnss_quality_name = name
 
@@ -485,17 +495,14 @@ class App:
                 ", configured %d ms: the control step uses the measured one" % gnss.EPOCH_MS))
 
     def gnss_watch(self, t_ms):
-        """The gap timer (every 100 ms): epochs stopped for one interval + 80 ms -> the step runs
-        on the dead-reckoned position (motor slowed at once), one step per epoch interval.
-        80 ms: above the receiver's latency jitter, and the loss is acted on within 0.5 s."""
-        if self.last_epoch_ms is None or self.mm.mode != M.AUTO:
-            return
-        iv = self.gnss.interval_ms or 200
-        if ticks_diff(t_ms, self.last_epoch_ms) < iv + 80:
-            return
-        if self.dr_step_ms is not None and ticks_diff(t_ms, self.dr_step_ms) < iv:
-            return
-        self.control_step(t_ms, epoch=False)
+        """The gap timer (every 100 ms, AUTO only): once epochs stopped, the control step runs on
+        the dead-reckoned position (motor slowed at once), one step per epoch interval
+        (deadreckon.gap_step_due)."""
+        from trackpilot.deadreckon import gap_step_due
+
+        if self.mm.mode == M.AUTO and gap_step_due(t_ms, self.last_epoch_ms, self.gnss.interval_ms,
+                                                   self.dr_step_ms):
+            self.control_step(t_ms, epoch=False)
 
     def apply_pilot(self, t_ms):
         """Turn the mode machine's pilot decision into driver commands, once per change."""

@@ -45,7 +45,7 @@ SCHEMA = {
     },
     "modes": {
         # GNSS gap inside AUTO: dead reckoning this long, then ALARM (docs/MODES.md "GNSS gaps")
-        "gnss_hold_s": (30.0, "f", 0.0, 120.0),
+        "gnss_hold_s": (40.0, "f", 0.0, 120.0),
         "gnss_stale_ms": (1000, "i", 300, 10000),
         "xte_alarm_m": (5.0, "f", 0.5, 100.0),
         "on_arrival": ("standby", "s", ("standby", "hold"), None),
