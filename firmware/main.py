@@ -4,7 +4,7 @@ Skip the app for a plain REPL: hold the STANDBY button (GPIO 11, SKIP_APP_PIN) w
 reset or powering up. Read before any file, so a config or module that crashes cannot hide it. Not
 the BOOT button: GPIO 0 is a strapping pin, held at power-up it enters the ROM download mode
 (docs/WIRING.md). A boot that crashes resets the board, and the boot-loop guard
-(trackpilot/bootguard.py) skips the app after two such boots in a row. The app always starts in
+(trackpilot/board/bootguard.py) skips the app after two such boots in a row. The app always starts in
 STANDBY and never engages by itself.
 """
 import sys
@@ -42,9 +42,9 @@ def run(guard, note=""):
     from trackpilot import config
 
     cfg, problems = config.load("/config.json")
-    from trackpilot import maint
+    from trackpilot.board import maint
     from trackpilot.app import App
-    from trackpilot.wiring_esp32 import Wiring
+    from trackpilot.board.wiring_esp32 import Wiring
 
     wiring = Wiring(cfg)
     cause = wiring.reset_cause()
@@ -65,7 +65,7 @@ def main():
         if _skip_requested():
             _say("skip-app button held, REPL only")
             return
-        from trackpilot.bootguard import BootGuard
+        from trackpilot.board.bootguard import BootGuard
 
         guard = BootGuard(machine.RTC().memory)
         run_app, note = guard.on_boot()

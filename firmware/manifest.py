@@ -5,9 +5,15 @@
 # boot.py and main.py stay on the filesystem (deploy copies them). Frozen modules are found before
 # /lib: remove /lib/trackpilot and /lib/tphmi after switching. Not built in this repository's
 # tests (that needs the ESP-IDF); check it when the first custom image is made.
+# Only what the board runs is frozen: the file lists below are the modules `trackpilot deploy`
+# copies (no trackpilot/sim, no tphmi/preview); a test checks they are current.
 import os
 
 _tp = os.environ.get("TRACKPILOT_DIR", "$(MPY_DIR)/../trackpilot")
+# --- board modules (trackpilot deploy --update-package-json writes this block) ---
+_TPHMI_FILES = ['__init__.py', 'auth.py', 'board.py', 'buttons.py', 'indicators.py', 'pages.py', 'remote.py', 'ssd1306.py', 'status.py']
+_TRACKPILOT_FILES = ['__init__.py', 'app.py', 'board/__init__.py', 'board/bootguard.py', 'board/maint.py', 'board/wifi.py', 'board/wiring_esp32.py', 'board/xfer.py', 'compat.py', 'config.py', 'core/__init__.py', 'core/control.py', 'core/modes.py', 'devices/__init__.py', 'devices/gnss.py', 'devices/motor.py', 'devices/mwv.py', 'devices/nmea.py', 'devices/nmea_out.py', 'devices/ntrip.py', 'devices/seatalk.py', 'devices/st2000.py', 'devices/stlink.py', 'devices/ubxcfg.py', 'nav/__init__.py', 'nav/deadreckon.py', 'nav/fix.py', 'nav/geo.py', 'nav/guidance.py', 'nav/progress.py', 'nav/track.py', 'record/__init__.py', 'record/logfmt.py', 'record/logger.py']
+# --- end of board modules ---
 include("$(PORT_DIR)/boards/manifest.py")  # the port's own frozen modules (asyncio, ...)
-package("trackpilot", base_path=_tp + "/firmware", opt=3)
-package("tphmi", base_path=_tp + "/hmi", opt=3)
+package("trackpilot", files=_TRACKPILOT_FILES, base_path=_tp + "/firmware", opt=3)
+package("tphmi", files=_TPHMI_FILES, base_path=_tp + "/hmi", opt=3)

@@ -27,8 +27,8 @@ def _args(argv):
 
 def main():
     from trackpilot import config
-    from trackpilot.simio import SimLink
-    from trackpilot.wiring_sim import Wiring
+    from trackpilot.sim.simio import SimLink
+    from trackpilot.sim.wiring_sim import Wiring
 
     opts = _args(sys.argv)
     if opts["--config"]:

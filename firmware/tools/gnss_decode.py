@@ -7,8 +7,8 @@
 # lines between frames are skipped.
 import sys
 
-from trackpilot import gnss
-from trackpilot.fix import RTK_NAMES, Fix
+from trackpilot.devices import gnss
+from trackpilot.nav.fix import RTK_NAMES, Fix
 
 
 def fx(v, d):

@@ -16,9 +16,12 @@ then `SUMMARY key=value ...`.
 import json
 import sys
 
-from trackpilot import config, control, guidance, logfmt, progress
-from trackpilot.fix import Fix
-from trackpilot.track import from_waypoints
+from trackpilot import config
+from trackpilot.core import control
+from trackpilot.nav import guidance, progress
+from trackpilot.record import logfmt
+from trackpilot.nav.fix import Fix
+from trackpilot.nav.track import from_waypoints
 
 _RTK = {"single": 1, "float": 2, "fixed": 3}
 

@@ -9,7 +9,7 @@
 #       `@1200 c84 86 26 97 02 00 00 00 08` (c = command bit set; @t_ms optional).
 import sys
 
-from trackpilot import seatalk as st
+from trackpilot.devices import seatalk as st
 
 
 def _jval(v):

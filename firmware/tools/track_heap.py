@@ -6,7 +6,7 @@
 import gc
 import sys
 
-from trackpilot import geo, track
+from trackpilot.nav import geo, track
 
 TMP = "/tmp/trackpilot_heap_track.csv"
 

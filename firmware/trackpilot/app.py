@@ -20,10 +20,12 @@ Usage:
 import gc
 
 from trackpilot import VERSION
-from trackpilot import modes as M
-from trackpilot import control, logfmt, ntrip, seatalk
+from trackpilot.core import modes as M
+from trackpilot.core import control
+from trackpilot.record import logfmt
+from trackpilot.devices import ntrip, seatalk
 from trackpilot.compat import ticks_add, ticks_diff, wrap180
-from trackpilot.fix import RTK_FIXED, RTK_FLOAT, RTK_NAMES, RTK_SINGLE, Fix
+from trackpilot.nav.fix import RTK_FIXED, RTK_FLOAT, RTK_NAMES, RTK_SINGLE, Fix
 
 try:
     import asyncio
@@ -43,7 +45,9 @@ def _error_text(e):
 
 class App:
     def __init__(self, wiring, cfg, cfg_problems=(), reset_cause="unknown"):
-        from trackpilot import gnss, guidance, logger, motor, mwv, seatalk, st2000, stlink
+        from trackpilot.devices import gnss, motor, mwv, seatalk, st2000, stlink
+        from trackpilot.nav import guidance
+        from trackpilot.record import logger
 
         self.w = wiring
         self.cfg = cfg
@@ -56,7 +60,7 @@ class App:
         self.gnss_stale_ms = mcfg["gnss_stale_ms"]
         bcfg = cfg["boat"]
         self.gnss = gnss.GnssParser(self.fix, heading_offset_deg=bcfg["heading_offset_deg"])
-        from trackpilot import deadreckon
+        from trackpilot.nav import deadreckon
 
         self.dr = deadreckon.DeadReckoner()  # the position through GNSS gaps inside AUTO
         self.gnss_quality_name = "none"  # fixed / float / single / none / dead-reckoning (logged)
@@ -140,7 +144,7 @@ class App:
         """Validate and activate a track file; only in STANDBY. Never raises: a bad or too large
         file, or one that does not fit in memory, is refused with a TRACK event and the active
         track stays. Returns (ok, message)."""
-        from trackpilot import progress, track
+        from trackpilot.nav import progress, track
 
         if self.mm.mode == M.AUTO:
             return False, "track not changed: only in STANDBY"
@@ -250,7 +254,7 @@ class App:
         """The SeaTalk link's verdict (stlink.LinkHealth): it cannot send keys, so the firmware
         cannot steer. Alarm, then ALARM mode (the pilot keeps its last course in Auto); the
         alarm clears when a datagram goes out again, AUTO only comes back by a person."""
-        from trackpilot import stlink
+        from trackpilot.devices import stlink
 
         if h == stlink.H_NONE:
             return
@@ -315,7 +319,7 @@ class App:
         return s.age_s(t_ms) if s is not None else None
 
     def gga_bytes(self):
-        from trackpilot import nmea_out
+        from trackpilot.devices import nmea_out
 
         return nmea_out.gga(self.fix) if self.fix.pos_valid else None
 
@@ -485,7 +489,7 @@ class App:
 
     def check_rate(self):
         """The receiver's measured epoch interval against the configured one (ubxcfg, 5 Hz)."""
-        from trackpilot import gnss
+        from trackpilot.devices import gnss
 
         iv = self.gnss.interval_ms
         if iv and iv != self.rate_reported_ms:
@@ -498,7 +502,7 @@ class App:
         """The gap timer (every 100 ms, AUTO only): once epochs stopped, the control step runs on
         the dead-reckoned position (motor slowed at once), one step per epoch interval
         (deadreckon.gap_step_due)."""
-        from trackpilot.deadreckon import gap_step_due
+        from trackpilot.nav.deadreckon import gap_step_due
 
         if self.mm.mode == M.AUTO and gap_step_due(t_ms, self.last_epoch_ms, self.gnss.interval_ms,
                                                    self.dr_step_ms):
@@ -627,7 +631,7 @@ class App:
         self.alive[name] = self.clock()
 
     def _on_gnss_msg(self, kind):
-        from trackpilot import gnss
+        from trackpilot.devices import gnss
 
         if kind == gnss.K_ACK_ACK or kind == gnss.K_ACK_NAK:
             r = self.gnss.ack
@@ -637,7 +641,7 @@ class App:
 
     def gnss_config_poll(self, t_ms):
         """Receiver configuration (CFG-VALSET, 5 Hz, our messages): resend on timeout, log the end."""
-        from trackpilot import ubxcfg
+        from trackpilot.devices import ubxcfg
 
         s = self.gnss_cfg
         out = s.poll(t_ms)
@@ -650,7 +654,7 @@ class App:
                 s.log[-1][1] if s.log else ""))
 
     async def task_gnss(self):
-        from trackpilot import ubxcfg
+        from trackpilot.devices import ubxcfg
 
         self.gnss_cfg = ubxcfg.ConfigSession(ubxcfg.valset_frames(ubxcfg.rover_items()))
         self._gnss_cfg_reported = False
@@ -730,7 +734,7 @@ class App:
 
     async def task_seatalk_tx(self):
         """Drive the SeaTalk bus-access state machine; one byte at a time with its parity."""
-        from trackpilot import stlink
+        from trackpilot.devices import stlink
 
         uart = self.w.seatalk_uart
         one = bytearray(1)
@@ -848,7 +852,7 @@ class App:
 
     def nmea_sentences(self):
         """GGA, RMC, HDT and XTE for chart plotters (UDP 10110 on the boat)."""
-        from trackpilot import nmea_out
+        from trackpilot.devices import nmea_out
 
         fix = self.fix
         out = nmea_out.gga(fix) + nmea_out.rmc(fix) + nmea_out.hdt(fix)
@@ -933,7 +937,7 @@ class App:
         if self.on_stable is None:
             return
         if self._stable_due_ms is None:
-            from trackpilot.bootguard import STABLE_MS
+            from trackpilot.board.bootguard import STABLE_MS
 
             self._stable_due_ms = ticks_add(t, STABLE_MS)
         elif ticks_diff(t, self._stable_due_ms) >= 0:

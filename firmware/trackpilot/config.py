@@ -115,7 +115,7 @@ SCHEMA = {
         "password": ("", "s", None, None),
         "gga_interval_s": (10, "i", 0, 600),
     },
-    "wifi": {  # trackpilot/wifi.py, docs/WIRING.md; the passwords are never logged
+    "wifi": {  # trackpilot/board/wifi.py, docs/WIRING.md; the passwords are never logged
         "enabled": (False, "b", None, None),  # station: join the boat's router
         "ssid": ("", "s", None, None),
         "password": ("", "s", None, None),
@@ -179,7 +179,7 @@ SCHEMA = {
 
 
 def _add_law_params():
-    from trackpilot.guidance import LAWS
+    from trackpilot.nav.guidance import LAWS
 
     sec = SCHEMA["guidance"]
     for law_name, cls in LAWS.items():

@@ -88,7 +88,7 @@ class RemoteHmi:
 async def run_remote(remote, sock, boat_addr, buttons, button_pins, show, indicators=None,
                      indicator_pins=None, ticks_ms=None, poll_ms=20, render_ms=200, wifi=None):
     """Main loop of the remote box. `sock` is a non-blocking UDP socket bound to the status port;
-    `show()` pushes the framebuffer to the display; `wifi`: a trackpilot.wifi.WifiLink to keep
+    `show()` pushes the framebuffer to the display; `wifi`: a trackpilot.board.wifi.WifiLink to keep
     connected (reconnect with back-off; its events go to the console and last_error)."""
     import asyncio
 
@@ -170,7 +170,7 @@ def main(config_path="/hmi_remote.json"):  # pragma: no cover - ESP32 only
 
     with open(config_path) as f:
         cfg = json.load(f)
-    from trackpilot.wifi import WifiLink
+    from trackpilot.board.wifi import WifiLink
 
     # station with reconnect and back-off; the access point is switched off (never an open one)
     link = WifiLink({"enabled": True, "ssid": cfg["wifi_ssid"], "password": cfg["wifi_password"],

@@ -15,17 +15,17 @@ import struct
 
 from trackpilot.compat import const
 
-# Modes (same numbers as trackpilot.modes).
+# Modes (same numbers as trackpilot.core.modes).
 MODE_STANDBY = const(0)
 MODE_AUTO = const(1)
 MODE_ALARM = const(2)
 MODE_ESTOP = const(3)
 MODE_NAMES = ("STANDBY", "AUTO", "ALARM", "E-STOP")
 
-# GNSS quality (same numbers as trackpilot.fix.RTK_*).
+# GNSS quality (same numbers as trackpilot.nav.fix.RTK_*).
 RTK_NAMES = ("none", "single", "float", "fixed")
 
-# Tiller pilot mode as the pilot reports it: the same codes as trackpilot.seatalk.MODE_* (and the log).
+# Tiller pilot mode as the pilot reports it: the same codes as trackpilot.devices.seatalk.MODE_* (and the log).
 PM_STANDBY = const(0)
 PM_AUTO = const(1)
 PM_WIND = const(2)
@@ -34,10 +34,10 @@ PM_CAL = const(4)
 PM_UNKNOWN = const(5)
 PILOT_MODE_NAMES = ("standby", "auto", "wind", "track", "calibration", "unknown")
 
-# Wi-Fi station state (same numbers as trackpilot.wifi): flags2 bits 1-2; bit 3 access point on.
+# Wi-Fi station state (same numbers as trackpilot.board.wifi): flags2 bits 1-2; bit 3 access point on.
 WIFI_NAMES = ("off", "connecting", "up", "retry")
 
-# Alarm bits (same as trackpilot.modes.AL_*), short names for the 16-column display.
+# Alarm bits (same as trackpilot.core.modes.AL_*), short names for the 16-column display.
 ALARM_BITS = (
     (1, "takeover"),
     (2, "gnss"),
@@ -106,7 +106,7 @@ FIELDS = (
     ("locked_deg", 0.0),  # the pilot's locked course
     ("keystrokes", 0),  # course keystrokes sent since boot
     ("hang_recoveries", 0),  # Standby-Auto recoveries since boot
-    # Wi-Fi (trackpilot.wifi): station state and access point
+    # Wi-Fi (trackpilot.board.wifi): station state and access point
     ("wifi", 0),  # 0 off, 1 connecting, 2 up, 3 retry (WIFI_NAMES)
     ("wifi_ap", False),  # the access point is on
     # environment and power (the datagram's trailer)

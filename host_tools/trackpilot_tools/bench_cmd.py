@@ -73,7 +73,7 @@ def geo_min_m(geom, radius_m=R_TURN_M):
     circle of radius R centred between the lines, which overshoots each line by R - spacing/2.
     This is the tangent-circle figure: a path that first swings wide can trade some of it against
     the straight before, so it is an upper estimate of the true minimax."""
-    from trackpilot.track import corner_deviation_m, corner_tangent_m
+    from trackpilot.nav.track import corner_deviation_m, corner_tangent_m
 
     worst = 0.0
     turns = []
@@ -544,9 +544,9 @@ def perf_section(perf):
              _f(mi.get("steps"), "%d"), _f(perf.get("accuracy_sim_speed_mean"), "%.0f"))]
     ps = perf.get("parser") or {}
     L.append("- **GNSS parser throughput** on one recorded stream (the simulator's F9P, %s epochs of UBX "
-             "NAV-RELPOSNED/HPPOSLLH/PVT + NMEA GGA/RMC, %s B; best of 3): trackpilot.gnss under the unix port "
+             "NAV-RELPOSNED/HPPOSLLH/PVT + NMEA GGA/RMC, %s B; best of 3): trackpilot.devices.gnss under the unix port "
              "(.mpy) %s B/s (%s epochs/s); pyubx2 %s on CPython %s B/s (NMEA via pynmeagps): ratio %s. NMEA "
-             "sentences alone (%s B): trackpilot.gnss %s B/s, pynmeagps %s B/s: ratio %s." % (
+             "sentences alone (%s B): trackpilot.devices.gnss %s B/s, pynmeagps %s B/s: ratio %s." % (
                  _f(ps.get("epochs"), "%d"), _f(ps.get("stream_bytes"), "%d"), _f(ps.get("micropython_unix_bytes_per_s"), "%d"),
                  _f(ps.get("micropython_unix_epochs_per_s"), "%.0f"), perf.get("pyubx2_version", ""),
                  _f(ps.get("pyubx2_cpython_bytes_per_s"), "%d"), _f(ps.get("ratio_micropython_over_pyubx2")),

@@ -27,7 +27,7 @@ REENGAGE_S = 5.0
 TICK_BASE = (1 << 30) - 60000  # sim_main's default --tick-base
 TICKS_MASK = (1 << 30) - 1
 
-# alarm bits (trackpilot.modes)
+# alarm bits (trackpilot.core.modes)
 AL = {"takeover": 1, "gnss": 2, "gnss_timeout": 4, "pilot_hang": 8, "pilot_lost": 16, "motor_link": 32,
       "xte": 64, "arrival": 128, "estop": 256, "seatalk": 1024}
 STANDBY, AUTO, ALARM, ESTOP = 0, 1, 2, 3

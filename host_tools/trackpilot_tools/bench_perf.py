@@ -16,7 +16,7 @@ figure (64-bit, this machine) unless it says otherwise; none of them predicts ES
   GC blocks, as on the ESP32); their ratio scales the unix-port figures. Without node/npm the bounds
   are given instead (x0.5: every object word-sized, x1.0: every byte raw data).
 - GNSS parser throughput on one recorded stream (the simulator's F9P: UBX + NMEA at 5 Hz):
-  trackpilot.gnss under the unix port against pyubx2 (with pynmeagps for NMEA) on CPython.
+  trackpilot.devices.gnss under the unix port against pyubx2 (with pynmeagps for NMEA) on CPython.
 """
 import json
 import math
@@ -46,8 +46,10 @@ def build_mpy(out):
         shutil.rmtree(out)
     build(out, say=lambda *a, **k: None)
     lib = out / "lib"
-    for src, dest, name in ((FIRMWARE_DIR / "trackpilot" / "simio.py", lib / "trackpilot" / "simio.mpy", "trackpilot/simio.py"),
-                            (FIRMWARE_DIR / "trackpilot" / "wiring_sim.py", lib / "trackpilot" / "wiring_sim.mpy", "trackpilot/wiring_sim.py"),
+    (lib / "trackpilot" / "sim").mkdir(parents=True, exist_ok=True)
+    (lib / "trackpilot" / "sim" / "__init__.py").write_text("")
+    for src, dest, name in ((FIRMWARE_DIR / "trackpilot" / "sim" / "simio.py", lib / "trackpilot" / "sim" / "simio.mpy", "trackpilot/sim/simio.py"),
+                            (FIRMWARE_DIR / "trackpilot" / "sim" / "wiring_sim.py", lib / "trackpilot" / "sim" / "wiring_sim.mpy", "trackpilot/sim/wiring_sim.py"),
                             (FIRMWARE_DIR / "sim_main.py", lib / "sim_main.mpy", "sim_main.py")):
         subprocess.run(mpy_cross_cmd() + ["-o", str(dest), "-s", name, str(src)], check=True, capture_output=True)
     return lib
@@ -302,7 +304,7 @@ def gnss_stream(out, seconds=600, seed=1):
 _MP_PARSE = r"""
 import sys, gc, time
 sys.path.insert(0, LIB)
-from trackpilot import gnss
+from trackpilot.devices import gnss
 with open(STREAM, "rb") as f:
     data = f.read()
 n = len(data)
@@ -328,7 +330,7 @@ print("PARSE", n, epochs, best)
 
 
 def parser_throughput(out, lib, stream, reps=3):
-    """MicroPython (unix port, .mpy) trackpilot.gnss vs pyubx2 (+pynmeagps for NMEA) on CPython."""
+    """MicroPython (unix port, .mpy) trackpilot.devices.gnss vs pyubx2 (+pynmeagps for NMEA) on CPython."""
     script = Path(out) / "parse_mp.py"
     script.write_text("LIB = %r\nSTREAM = %r\nREPS = %d\n" % (str(lib), str(stream), reps) + _MP_PARSE)
     env = micropython_env()
@@ -376,7 +378,7 @@ def parser_throughput(out, lib, stream, reps=3):
                     "pynmeagps_cpython_bytes_per_s": round(len(nm) / best)})
     except ImportError as e:
         res["cpython_error"] = str(e)
-    # trackpilot.gnss on the NMEA-only part too, for the pynmeagps ratio
+    # trackpilot.devices.gnss on the NMEA-only part too, for the pynmeagps ratio
     if res.get("nmea_bytes"):
         nm_path = Path(out) / "gnss_stream_nmea.txt"
         nm_path.write_bytes(nm)
@@ -403,7 +405,7 @@ base = gc.mem_alloc()
 """, """
 from trackpilot import config
 from trackpilot.app import App
-from trackpilot.wiring_bench import Wiring
+from trackpilot.sim.wiring_bench import Wiring
 """, """
 gc.collect()
 code = gc.mem_alloc() - base

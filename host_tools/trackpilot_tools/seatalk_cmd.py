@@ -44,7 +44,7 @@ def vector_datagrams(path=VECTORS):
 def make_capture(out_path, text=False, noise=0, seed=1, vectors=VECTORS):
     """Write the vectors as a capture; returns the list of datagrams written (without noise)."""
     sys.path.insert(0, str(FIRMWARE_DIR))
-    from trackpilot import seatalk as st
+    from trackpilot.devices import seatalk as st
 
     dgs = vector_datagrams(vectors)
     rng = random.Random(seed)

@@ -78,7 +78,7 @@ def check_inputs(args):
 
     _fw_import()
     from trackpilot import config as fwconfig
-    from trackpilot.track import TrackError, parse_track_csv
+    from trackpilot.nav.track import TrackError, parse_track_csv
 
     track = Path(args.track)
     if not track.is_file():

@@ -8,7 +8,7 @@ and the expected duration, then the warnings (corners sharper than the boat can 
 expected deviation; very slow legs). A file that does not parse prints `FILE: line N: message`
 on stderr and exits 1; `--strict` also exits 1 (code 2) when there are warnings.
 
-The parsing and validation are firmware/trackpilot/track.py, imported here under CPython (the
+The parsing and validation are firmware/trackpilot/nav/track.py, imported here under CPython (the
 same code the boat runs), so a file that passes here loads on the boat.
 """
 import sys
@@ -18,7 +18,7 @@ from trackpilot_tools.mpy import FIRMWARE_DIR
 if str(FIRMWARE_DIR) not in sys.path:
     sys.path.insert(0, str(FIRMWARE_DIR))
 
-from trackpilot import track as fw_track  # noqa: E402
+from trackpilot.nav import track as fw_track  # noqa: E402
 
 
 def _duration_text(s):

@@ -2,7 +2,7 @@
 validated trackpilot track file (tracks/README.md).
 
 Coordinates are converted from their text to 1e-7 deg integers without a float
-(trackpilot.geo.decimal_to_e7), so an imported point is exactly the point in the file.
+(trackpilot.nav.geo.decimal_to_e7), so an imported point is exactly the point in the file.
 Speeds: a default (--speed / --speed-kn), a list per leg (--leg-speeds), or a column of the
 CSV (speed_mps or speed_kn), in that order of precedence: per leg > column > default.
 Recorded GPX tracks (dense points) are simplified (Douglas-Peucker, --simplify metres) and points
@@ -27,8 +27,8 @@ from trackpilot_tools.mpy import FIRMWARE_DIR
 if str(FIRMWARE_DIR) not in sys.path:
     sys.path.insert(0, str(FIRMWARE_DIR))
 
-from trackpilot import geo  # noqa: E402
-from trackpilot import track as fw_track  # noqa: E402
+from trackpilot.nav import geo  # noqa: E402
+from trackpilot.nav import track as fw_track  # noqa: E402
 
 KNOT_MPS = 1852.0 / 3600.0
 DEFAULT_SPEED_MPS = 1.5

@@ -3,7 +3,7 @@
     trackpilot upload tracks/middelburg_loop.csv [--port PORT]
 
 Steps (each one printed):
-  1. validate the file with the firmware's own track module (firmware/trackpilot/track.py, run
+  1. validate the file with the firmware's own track module (firmware/trackpilot/nav/track.py, run
      here under CPython): a file that does not parse is refused with its line and message and the
      board is not touched; warnings are printed;
   2. ask the board for the maintenance state (refused unless it is in STANDBY: the reason is shown);
@@ -29,7 +29,7 @@ def check_track(path):
     """(text, warnings) or raises DeviceError with the parser's message."""
     if str(FIRMWARE_DIR) not in sys.path:
         sys.path.insert(0, str(FIRMWARE_DIR))
-    from trackpilot import track as fw_track
+    from trackpilot.nav import track as fw_track
 
     try:
         data = Path(path).read_bytes()

@@ -1,7 +1,7 @@
 # A stand-in for firmware/main.py under the MicroPython unix port, on a pseudo-terminal: the
 # tests drive it with the real mpremote. cwd plays the board's flash root (relative paths).
 #
-# It runs the REAL maintenance loop (trackpilot.maint.supervise: guard, Python raw REPL, restart)
+# It runs the REAL maintenance loop (trackpilot.board.maint.supervise: guard, Python raw REPL, restart)
 # around the REAL application (trackpilot.app.App) on the bench wiring (wiring_bench: no devices
 # attached, real clock), with `--stand-in` a small app with the same interface instead.
 # The test switches modes through mode.txt (a person's STANDBY; AUTO is forced on the mode
@@ -18,8 +18,8 @@ except ImportError:
     import uasyncio as asyncio
 import time
 
-from trackpilot import maint
-from trackpilot import modes as M
+from trackpilot.board import maint
+from trackpilot.core import modes as M
 
 
 class StandInApp:
@@ -40,7 +40,7 @@ class StandInApp:
             f.write("%s %s\n" % (kind, text))
 
     def load_track(self, path):
-        from trackpilot import track
+        from trackpilot.nav import track
 
         if self.mm.mode == M.AUTO:
             return False, "only in STANDBY"
@@ -84,7 +84,7 @@ class StandInApp:
 def real_app(mode):
     from trackpilot import config
     from trackpilot.app import App
-    from trackpilot.wiring_bench import Wiring
+    from trackpilot.sim.wiring_bench import Wiring
 
     class BenchApp(App):
         """The real App; events also go to events.txt for the test, modes follow mode.txt."""

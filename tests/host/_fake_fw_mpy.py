@@ -3,7 +3,7 @@ reports STANDBY, on ENGAGE sends the Auto key on SeaTalk with the right parities
 +10 once later, sets 400 RPM every 200 ms, and counts GNSS bytes. Not the application."""
 import sys
 
-from trackpilot.simio import SimLink
+from trackpilot.sim.simio import SimLink
 
 link = SimLink(sys.stdin.buffer, sys.stdout.buffer)
 asyncio = link.install()

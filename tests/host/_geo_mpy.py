@@ -5,7 +5,7 @@
 # "s lat0 lon0 lat1 lon1"                     -> seed formulas "dist_m bearing_deg"
 import sys
 
-from trackpilot import geo
+from trackpilot.nav import geo
 
 
 def main():

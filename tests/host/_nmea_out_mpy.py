@@ -1,7 +1,7 @@
 # Prints NMEA sentences for fixes given on stdin: "lat_e7 lon_e7 rtk heading_deg xte_m" per line.
 import sys
-from trackpilot.fix import Fix
-from trackpilot import nmea_out
+from trackpilot.nav.fix import Fix
+from trackpilot.devices import nmea_out
 
 for line in sys.stdin.read().split("\n"):
     if not line.strip():

@@ -2,7 +2,7 @@
 import sys
 import asyncio
 import time
-from trackpilot import ntrip
+from trackpilot.devices import ntrip
 
 port = int(sys.argv[1])
 mount = sys.argv[2]

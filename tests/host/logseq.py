@@ -6,7 +6,7 @@ Usage: for rec, events in sailing_records(n=18000, seed=1): ...  (rec is a fresh
 import math
 import random
 
-from trackpilot.logfmt import ControlRecord
+from trackpilot.record.logfmt import ControlRecord
 
 LAT0_E7 = 514950000
 LON0_E7 = 36100000
@@ -158,7 +158,7 @@ def track_waypoints():
 
 def write_log(root, n, seed=1, **logger_kw):
     """Sail n records into a Logger session under root; returns the Logger."""
-    from trackpilot.logger import Logger
+    from trackpilot.record.logger import Logger
 
     lg = Logger(root, fw_version="test", **logger_kw)
     t0 = (1 << 30) - 60000

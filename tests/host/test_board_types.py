@@ -17,7 +17,7 @@ BOARD_IMPORT = re.compile(r"^\s*(import (machine|network|esp32)\b|from (machine|
 def board_files():
     files = [ROOT / "firmware" / "boot.py", ROOT / "firmware" / "main.py"]
     for d in ("firmware/trackpilot", "hmi/tphmi"):
-        for p in sorted((ROOT / d).glob("*.py")):
+        for p in sorted((ROOT / d).rglob("*.py")):
             if BOARD_IMPORT.search(p.read_text()):
                 files.append(p)
     return files

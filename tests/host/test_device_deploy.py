@@ -23,19 +23,23 @@ def test_dry_run_builds_importable_mpy(tmp_path):
     srcs = device_cmd.sources()
     for pkg, src in srcs:
         assert (out / "lib" / pkg / (src.stem + ".mpy")).stat().st_size > 0
-    assert not (out / "lib" / "trackpilot" / "simio.mpy").exists()
+    # nothing of the simulator, the bench or the HMI previews goes on the board
+    built = sorted(str(q.relative_to(out / "lib")) for q in (out / "lib").rglob("*.mpy"))
+    for host_only in ("simio", "wiring_sim", "motor_sim", "wiring_bench", "samples", "render_cli"):
+        assert not [b for b in built if b.endswith("/%s.mpy" % host_only)], (host_only, built)
+    assert not (out / "lib" / "trackpilot" / "sim").exists() and not (out / "lib" / "tphmi" / "preview").exists()
     assert (out / "main.py").read_text() == (ROOT / "firmware" / "main.py").read_text()
     pkg = json.loads((out / "package.json").read_text())
     assert len(pkg["urls"]) == len(srcs)
     code = ("import sys; sys.path.clear(); sys.path.append(%r)\n"
-            "import trackpilot.modes as M, trackpilot.maint, trackpilot.xfer, tphmi.status\n"
-            "print(M.__file__, trackpilot.xfer.__file__, M.MODE_NAMES[M.ModeMachine().mode])\n"
+            "import trackpilot.core.modes as M, trackpilot.board.maint, trackpilot.board.xfer, tphmi.status\n"
+            "print(M.__file__, trackpilot.board.xfer.__file__, M.MODE_NAMES[M.ModeMachine().mode])\n"
             % str(out / "lib"))
     r = subprocess.run(micropython_cmd() + ["-c", code], capture_output=True, text=True, cwd=str(tmp_path),
                        env={"MICROPYPATH": str(out / "lib")})
     assert r.returncode == 0, r.stdout + r.stderr
     files = r.stdout.split()
-    assert files[0].endswith("trackpilot/modes.mpy") and files[1].endswith("trackpilot/xfer.mpy")
+    assert files[0].endswith("trackpilot/core/modes.mpy") and files[1].endswith("trackpilot/board/xfer.mpy")
     assert files[2] == "STANDBY"
 
 
@@ -53,3 +57,17 @@ def test_firmware_package_json_lists_every_module():
     assert targets == want, "regenerate firmware/package.json (docs/DEVICE.md)"
     for target, src in pkg["urls"]:
         assert (ROOT / "firmware" / src).resolve().is_file(), src
+
+
+def test_manifest_freezes_what_deploy_copies():
+    # firmware/manifest.py freezes the board's modules only: the same list as deploy, none of the
+    # simulator's, bench's or HMI previews' modules
+    ns = {}
+    text = (ROOT / "firmware" / "manifest.py").read_text()
+    block = text.split(device_cmd.MANIFEST_BEGIN)[1].split(device_cmd.MANIFEST_END)[0]
+    exec(block, ns)
+    assert {"trackpilot": ns["_TRACKPILOT_FILES"], "tphmi": ns["_TPHMI_FILES"]} == device_cmd.manifest_files(), \
+        "regenerate with trackpilot deploy --update-package-json"
+    frozen = ns["_TRACKPILOT_FILES"] + ns["_TPHMI_FILES"]
+    assert "app.py" in frozen and "core/modes.py" in frozen
+    assert not [f for f in frozen if f.startswith(("sim/", "preview/"))]

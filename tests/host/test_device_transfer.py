@@ -1,6 +1,6 @@
 """upload, pull and the maintenance state end to end: the real `mpremote` (as a subprocess, through
 the trackpilot host tools) against the real unix-port `micropython` on a pseudo-terminal, running
-the real maintenance loop (trackpilot.maint.supervise) around a stand-in app (_device_main.py).
+the real maintenance loop (trackpilot.board.maint.supervise) around a stand-in app (_device_main.py).
 The temp folder plays the board's flash root (device root '')."""
 import hashlib
 import os
@@ -200,7 +200,7 @@ def test_plain_mpremote_soft_reset_is_answered_not_performed(board):
     dev = _dev(b)
     dev.enter()
     p = subprocess.run([sys.executable, "-m", "mpremote", "connect", b.port, "exec",
-                        "import trackpilot.xfer as x; x.info()"], capture_output=True, text=True, timeout=30)
+                        "import trackpilot.board.xfer as x; x.info()"], capture_output=True, text=True, timeout=30)
     assert p.returncode == 0 and "'maint': 'ACTIVE" in p.stdout, p.stdout + p.stderr
     dev.leave()
     assert _wait_for(lambda: "RUN app run 2" in b.events())

@@ -16,7 +16,7 @@ from geographiclib.geodesic import Geodesic
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "firmware"))
 
-from trackpilot import geo  # noqa: E402  (CPython import of the same module)
+from trackpilot.nav import geo  # noqa: E402  (CPython import of the same module)
 from trackpilot_tools.mpy import run_script  # noqa: E402
 import pytest
 

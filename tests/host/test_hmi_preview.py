@@ -58,7 +58,7 @@ def test_preview_rejects_unknown_field(tmp_path, capsys):
 
 
 def test_preview_from_log(tmp_path):
-    from trackpilot import logfmt
+    from trackpilot.record import logfmt
 
     enc = logfmt.LogEncoder()
     data = bytes(enc.header(fw_version="t", track_id="loop", reset_cause="power_on", t0_ms=0,
@@ -103,11 +103,11 @@ def test_refs_regenerate_identically(tmp_path):
 
 def test_status_datagram_same_bytes_on_cpython():
     """The host monitor decodes with the same module under CPython: bytes must agree."""
-    from tphmi.samples import sample
+    from tphmi.preview.samples import sample
     from tphmi.status import decode_status, encode_status
 
     script = Path(__file__).parent / "_hmi_encode.py"
-    script.write_text("import sys\nfrom tphmi.samples import sample\nfrom tphmi.status import encode_status\n"
+    script.write_text("import sys\nfrom tphmi.preview.samples import sample\nfrom tphmi.status import encode_status\n"
                       "print(''.join('%02x' % b for b in encode_status(sample(sys.argv[1]))))\n")
     try:
         for name in ("auto_right", "alarm_gnss", "standby_refused"):
@@ -132,7 +132,7 @@ def test_command_tag_is_standard_hmac_sha256():
 
 def test_status_offsets_match_docs_telemetry():
     """A few offsets from docs/TELEMETRY.md, read straight from the bytes."""
-    from tphmi.samples import sample
+    from tphmi.preview.samples import sample
     from tphmi.status import encode_status
 
     st = sample("alarm_gnss")

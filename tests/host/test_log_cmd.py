@@ -9,7 +9,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "firmware"))
 
-from trackpilot import logfmt as L  # noqa: E402
+from trackpilot.record import logfmt as L  # noqa: E402
 from trackpilot_tools import cli  # noqa: E402
 from trackpilot_tools.logdecode import (  # noqa: E402
     decode_files, lat_lon_deg_text, summarize)

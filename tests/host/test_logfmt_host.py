@@ -7,7 +7,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "firmware"))
 
-from trackpilot import logfmt as L  # noqa: E402
+from trackpilot.record import logfmt as L  # noqa: E402
 from trackpilot_tools.logdecode import CONTROL_COLUMNS, decode_files  # noqa: E402
 
 from logseq import sailing_records, track_waypoints, write_log  # noqa: E402

@@ -9,8 +9,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "firmware"))
 
-from trackpilot import logfmt as L  # noqa: E402
-from trackpilot.logger import Logger, parse_name  # noqa: E402
+from trackpilot.record import logfmt as L  # noqa: E402
+from trackpilot.record.logger import Logger, parse_name  # noqa: E402
 
 from logseq import sailing_records, track_waypoints, write_log  # noqa: E402
 

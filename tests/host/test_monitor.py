@@ -27,7 +27,7 @@ def _monitor(args):
 
 
 def test_monitor_shows_status_then_stale_link():
-    from tphmi.samples import sample
+    from tphmi.preview.samples import sample
     from tphmi.status import encode_status
 
     port = _free_port()

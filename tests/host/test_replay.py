@@ -44,7 +44,7 @@ def test_replay_with_another_law_differs(sim_run):
 
 def test_replay_of_a_cut_log_reports_damage(sim_run, tmp_path):
     out, logs = sim_run
-    from trackpilot import logfmt
+    from trackpilot.record import logfmt
 
     data = open(logs[0], "rb").read()
     offsets = [r.offset for r in logfmt.iter_records(data) if r.type == "control"]

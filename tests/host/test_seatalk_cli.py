@@ -88,8 +88,8 @@ def test_cli_entry_point(tmp_path, capsys):
 
 
 def test_motor_sim_under_cpython():
-    from trackpilot import motor
-    from trackpilot.motor_sim import MotorSim
+    from trackpilot.devices import motor
+    from trackpilot.sim.motor_sim import MotorSim
 
     link = motor.MotorLink(fmt="binary")
     dev = MotorSim(fmt="binary", rpm_tau_s=0.5)

@@ -112,7 +112,7 @@ def test_fault_reaction(straight, tmp_path, fault, expect):
         assert not after, after
 
 
-AL_SEATALK = 1024  # firmware/trackpilot/modes.py
+AL_SEATALK = 1024  # firmware/trackpilot/core/modes.py
 
 
 def test_pilot_hang_steer_detected_in_bounded_time(straight, tmp_path):

@@ -33,9 +33,11 @@ def _interpreter():
 
 def test_2000_waypoints_load_in_110k(tmp_path):
     lib = tmp_path / "lib"
-    (lib / "trackpilot").mkdir(parents=True)
-    srcs = [(p, lib / "trackpilot" / (p.stem + ".mpy"), "trackpilot/" + p.name)
-            for p in sorted((ROOT / "firmware" / "trackpilot").glob("*.py"))]
+    fw = ROOT / "firmware"
+    srcs = [(p, lib / (str(p.relative_to(fw))[:-3] + ".mpy"), str(p.relative_to(fw)))
+            for p in sorted((fw / "trackpilot").rglob("*.py"))]
+    for _, dest, _ in srcs:
+        dest.parent.mkdir(parents=True, exist_ok=True)
     srcs.append((ROOT / "firmware" / "tools" / "track_heap.py", lib / "track_heap.mpy", "track_heap.py"))
     for src, dest, name in srcs:
         subprocess.run(mpy_cross_cmd() + ["-o", str(dest), "-s", name, str(src)], check=True, capture_output=True)

@@ -10,7 +10,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "firmware"))
 
-from trackpilot import track as fw_track  # noqa: E402
+from trackpilot.nav import track as fw_track  # noqa: E402
 from trackpilot_tools import track_import as TI  # noqa: E402
 
 DATA = ROOT / "tests" / "data" / "import"

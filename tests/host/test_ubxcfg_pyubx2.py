@@ -12,7 +12,7 @@ pytestmark = pytest.mark.mpy  # runs the firmware under $MICROPYTHON (so make te
 
 SCRIPT = r'''
 import sys
-from trackpilot import ubxcfg
+from trackpilot.devices import ubxcfg
 cases = [
     (ubxcfg.rover_items(), 1),
     (ubxcfg.rover_items(rate_ms=100, nmea=(), eoe=False, hppos=False, baudrate=115200,

@@ -1,11 +1,11 @@
 # Frame builders for the GNSS tests (MicroPython and CPython): UBX from the field layout in
-# PROTOCOLS.md, NMEA via trackpilot.nmea.format_sentence, RTCM3 with CRC-24Q; and a small
+# PROTOCOLS.md, NMEA via trackpilot.devices.nmea.format_sentence, RTCM3 with CRC-24Q; and a small
 # deterministic PRNG (the float32 interpreter has no `random`).
 import struct
 
-from trackpilot.gnss import crc24q
-from trackpilot.nmea import format_sentence
-from trackpilot.ubxcfg import ubx_frame
+from trackpilot.devices.gnss import crc24q
+from trackpilot.devices.nmea import format_sentence
+from trackpilot.devices.ubxcfg import ubx_frame
 
 
 def pvt(itow, lat_e7=514900000, lon_e7=36100000, carr=2, fix_type=3, fix_ok=1, g_speed=1500,

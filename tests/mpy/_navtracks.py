@@ -2,9 +2,9 @@
 # placed in metres, and a few-line kinematic boat.
 import math
 
-from trackpilot import geo
-from trackpilot.fix import Fix
-from trackpilot.track import parse_track_csv
+from trackpilot.nav import geo
+from trackpilot.nav.fix import Fix
+from trackpilot.nav.track import parse_track_csv
 
 LAT0 = 514900000
 LON0 = 36100000

@@ -4,7 +4,8 @@ import os
 import sys
 
 import tpassert as t
-from trackpilot import config, track
+from trackpilot import config
+from trackpilot.nav import track
 
 sys.path.append("firmware/tools")
 import track_heap  # noqa: E402

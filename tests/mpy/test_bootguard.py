@@ -4,7 +4,8 @@
 import sys
 
 import tpassert as t
-from trackpilot import bootguard, config
+from trackpilot.board import bootguard
+from trackpilot import config
 
 
 class FakeRtcMemory:

@@ -4,9 +4,9 @@ import math
 
 from tpassert import eq, near, true
 
-from trackpilot import geo
-from trackpilot.deadreckon import DeadReckoner, gap_step_due
-from trackpilot.fix import RTK_FIXED, RTK_NONE, Fix
+from trackpilot.nav import geo
+from trackpilot.nav.deadreckon import DeadReckoner, gap_step_due
+from trackpilot.nav.fix import RTK_FIXED, RTK_NONE, Fix
 
 LAT0 = 514950000
 LON0 = 36100000

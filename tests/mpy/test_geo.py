@@ -1,7 +1,7 @@
 # geo.py under MicroPython: NMEA text to integers, lever arm, frames, antimeridian.
 # (Accuracy against geographiclib is tests/host/test_geo_oracle.py.)
 import tpassert as t
-from trackpilot import geo
+from trackpilot.nav import geo
 
 
 def test_ddmm_exact():

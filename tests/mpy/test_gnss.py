@@ -2,9 +2,10 @@
 import tpassert as t
 from _gnss_frames import Rng, eoe, hppos, nmea, pvt, relpos, rtcm3
 
-from trackpilot import geo, gnss
-from trackpilot.fix import RTK_FIXED, RTK_FLOAT, RTK_NONE, RTK_SINGLE, Fix
-from trackpilot.nmea import parse_ddmm_e7, parse_e3
+from trackpilot.nav import geo
+from trackpilot.devices import gnss
+from trackpilot.nav.fix import RTK_FIXED, RTK_FLOAT, RTK_NONE, RTK_SINGLE, Fix
+from trackpilot.devices.nmea import parse_ddmm_e7, parse_e3
 
 
 def _ddmm(text, hemi):
@@ -287,7 +288,7 @@ def test_resync_after_cut_frames():
 
 
 def test_oversize_frames_skipped_by_length():
-    from trackpilot.ubxcfg import ubx_frame
+    from trackpilot.devices.ubxcfg import ubx_frame
     big = ubx_frame(0x01, 0x35, bytes(1300))  # NAV-SAT: longer than the buffer, skipped
     bad = bytearray(ubx_frame(0x01, 0x35, bytes(1200)))
     bad[300] ^= 1
@@ -322,7 +323,7 @@ def test_bad_fields_are_safe():
     t.eq(_feed(gp, nmea(b"GPGGA,1000,5129.4,N")), 1)  # short: no UTC, no fields
     t.true(not fix.pos_valid)
     # a length a decoded message never has: searched past at once (no wait for 91 bytes)
-    from trackpilot.ubxcfg import ubx_frame
+    from trackpilot.devices.ubxcfg import ubx_frame
     seen = []
     gp.on_msg = lambda k: seen.append(k)
     _feed(gp, ubx_frame(0x01, 0x07, bytes(91))[:20] + pvt(5000))

@@ -9,8 +9,8 @@ import micropython
 import tpassert as t
 from _gnss_frames import nmea, pvt, relpos
 
-from trackpilot import gnss
-from trackpilot.fix import Fix
+from trackpilot.devices import gnss
+from trackpilot.nav.fix import Fix
 
 EPOCHS = 100
 
@@ -89,7 +89,7 @@ def test_parse_time_per_epoch():
 def test_framing_allocates_nothing():
     # frames that fill no float field: NMEA the parser skips, an oversize UBX, RTCM3, garbage
     from _gnss_frames import rtcm3
-    from trackpilot.ubxcfg import ubx_frame
+    from trackpilot.devices.ubxcfg import ubx_frame
     gp = gnss.GnssParser(Fix())
     data = (nmea(b"GPGSV,3,1,11,01,03,161,40,03,35,107,32,04,67,055,23,06,51,291,30") +
             ubx_frame(0x01, 0x35, bytes(1300)) + ubx_frame(0x01, 0x35, bytes(700)) +

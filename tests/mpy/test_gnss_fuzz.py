@@ -9,10 +9,10 @@ import time
 import tpassert as t
 from _gnss_frames import Rng, eoe, hppos, nmea, pvt, relpos, rtcm3
 
-from trackpilot import gnss
-from trackpilot.fix import Fix
-from trackpilot.nmea import format_sentence
-from trackpilot.ubxcfg import ubx_frame
+from trackpilot.devices import gnss
+from trackpilot.nav.fix import Fix
+from trackpilot.devices.nmea import format_sentence
+from trackpilot.devices.ubxcfg import ubx_frame
 
 N = int(os.getenv("TRACKPILOT_FUZZ_N") or "100000")
 _SYNC = b"$\xb5\x62\xd3*,\r\n.0N5"

@@ -5,8 +5,8 @@ from array import array
 
 import tpassert as t
 from _navtracks import Boat, make_fix, track_from_m
-from trackpilot.guidance import LosLaw, SeedLaw, make_law
-from trackpilot.progress import Progress
+from trackpilot.nav.guidance import LosLaw, SeedLaw, make_law
+from trackpilot.nav.progress import Progress
 
 
 def _corner():  # north 100 m, then east 100 m
@@ -242,7 +242,7 @@ def test_configuration():
 
 
 def _sail_example(law, cur_e_mps, cur_n_mps):
-    from trackpilot.track import parse_track_csv
+    from trackpilot.nav.track import parse_track_csv
 
     with open("tracks/middelburg_loop.csv") as f:
         trk = parse_track_csv(f.read())

@@ -2,8 +2,8 @@
 # mode machine and Fix: buttons become commands, the page shows the app's state, LEDs follow,
 # remote packets are verified, the status datagram goes out.
 import tpassert as T
-from trackpilot import modes
-from trackpilot.fix import Fix
+from trackpilot.core import modes
+from trackpilot.nav.fix import Fix
 
 try:
     import framebuf

@@ -2,7 +2,7 @@
 import tpassert as T
 from tphmi.buttons import B_ACK, B_AUTO, B_NEXT, B_PAGE, B_PREV, B_STBY, N_BUTTONS, Buttons, ButtonPins
 from trackpilot.compat import TICKS_PERIOD, ticks_add
-from trackpilot import modes
+from trackpilot.core import modes
 
 
 class Run:

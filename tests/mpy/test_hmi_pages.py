@@ -51,7 +51,7 @@ def text_at(buf, s, x, y, inverted=False):
 
 
 def _st(name, **ch):
-    from tphmi.samples import sample
+    from tphmi.preview.samples import sample
 
     st = sample(name)
     st.update(ch)
@@ -175,7 +175,7 @@ def _read_pbm(path):
 def test_main_page_matches_reference_images():
     if framebuf is None:
         return
-    from tphmi.samples import sample
+    from tphmi.preview.samples import sample
 
     buf, fb, p = _setup()
     for name in REF_SAMPLES:

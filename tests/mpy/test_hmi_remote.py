@@ -44,7 +44,7 @@ def _text_at(buf, s, x, y, inverted=False):
 def test_status_link_lost_and_pages():
     if framebuf is None or hashlib is None:
         return
-    from tphmi.samples import sample
+    from tphmi.preview.samples import sample
     from tphmi.status import encode_status
 
     r, buf, _ = _remote()
@@ -93,7 +93,7 @@ def test_udp_shells_loopback():
         return
     from tphmi.buttons import B_STBY, N_BUTTONS, Buttons
     from tphmi.remote import command_listener, run_remote, udp_socket
-    from tphmi.samples import sample
+    from tphmi.preview.samples import sample
     from tphmi.status import encode_status
 
     import time

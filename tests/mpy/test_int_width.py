@@ -5,7 +5,8 @@
 import micropython
 import tpassert as t
 
-from trackpilot import gnss, logfmt, stlink
+from trackpilot.devices import gnss, stlink
+from trackpilot.record import logfmt
 
 DATA = bytes(range(256)) * 4
 # an RTCM3 frame (1005) with its CRC: the CRC over header + payload + CRC is 0

@@ -1,6 +1,6 @@
 # Log format round trip under MicroPython: exact integers, CRC, wraps, events, track, damage.
 import tpassert as T
-from trackpilot import logfmt as L
+from trackpilot.record import logfmt as L
 
 _W = (1 << 30) - 1
 

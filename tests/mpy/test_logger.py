@@ -4,8 +4,8 @@ import gc
 import os
 
 import tpassert as T
-from trackpilot import logfmt as L
-from trackpilot.logger import Logger
+from trackpilot.record import logfmt as L
+from trackpilot.record.logger import Logger
 
 
 def _tmpdir():
@@ -137,7 +137,7 @@ class _Wp:
 
 
 def test_application_interface():
-    from trackpilot.fix import Fix
+    from trackpilot.nav.fix import Fix
 
     d = _tmpdir()
     try:

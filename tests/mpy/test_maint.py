@@ -1,6 +1,6 @@
 # Maintenance gate: entered only from STANDBY, ends by itself (idle and hard limit), tick wrap.
 from tpassert import eq, true
-from trackpilot import maint
+from trackpilot.board import maint
 from trackpilot.compat import TICKS_PERIOD, ticks_add
 
 

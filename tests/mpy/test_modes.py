@@ -1,6 +1,6 @@
 # Mode machine: the safety table of ARCHITECTURE.md, under the MicroPython unix port.
 from tpassert import eq, true
-from trackpilot import modes as M
+from trackpilot.core import modes as M
 
 
 def _auto(mm, t=0):

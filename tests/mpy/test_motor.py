@@ -1,7 +1,7 @@
 # Motor link (placeholder frame), its simulated device, link loss, low battery, PWM mapping.
 import tpassert as T
-from trackpilot import motor as m
-from trackpilot.motor_sim import MotorSim
+from trackpilot.devices import motor as m
+from trackpilot.sim.motor_sim import MotorSim
 
 
 def test_frames_both_formats():

@@ -1,8 +1,8 @@
 # Wind sensor MWV parser and the shared NMEA line framer (runs under MicroPython).
 import tpassert as t
 
-from trackpilot.mwv import MwvParser
-from trackpilot.nmea import LineFramer, format_sentence
+from trackpilot.devices.mwv import MwvParser
+from trackpilot.devices.nmea import LineFramer, format_sentence
 
 
 def _one(body, t_ms=100):

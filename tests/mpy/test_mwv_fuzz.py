@@ -8,8 +8,8 @@ import time
 import tpassert as t
 from _gnss_frames import Rng
 
-from trackpilot.mwv import MwvParser
-from trackpilot.nmea import format_sentence
+from trackpilot.devices.mwv import MwvParser
+from trackpilot.devices.nmea import format_sentence
 
 N = int(os.getenv("TRACKPILOT_FUZZ_N") or "100000")
 _CHARS = b"0123456789.,-RTKMNAV*$\r\n"

@@ -1,7 +1,7 @@
 # progress.py under MicroPython: signs, leg advance, loops, joining, skip/back, the end.
 import tpassert as t
 from _navtracks import pos, track_from_m
-from trackpilot.progress import RULE_SEED, Progress
+from trackpilot.nav.progress import RULE_SEED, Progress
 
 
 def _at(prog, e, n):

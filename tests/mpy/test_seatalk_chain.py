@@ -2,9 +2,9 @@
 # as parity -> a fake pilot that frames with the 9th bit -> 0x84 bytes back through the firmware's
 # 8-bit Framer (own echo included), as the simulator will run it.
 import tpassert as T
-from trackpilot import seatalk as st
-from trackpilot import stlink as sl
-from trackpilot import st2000 as sp
+from trackpilot.devices import seatalk as st
+from trackpilot.devices import stlink as sl
+from trackpilot.devices import st2000 as sp
 from trackpilot.compat import wrap180
 
 CHAR_MS = 2  # a character on the wire (2.29 ms at 4800 Bd, rounded for 1 ms steps)

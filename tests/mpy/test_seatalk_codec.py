@@ -1,6 +1,6 @@
 # SeaTalk1 codec, parity rule and 8-bit framer, against tests/data/seatalk/seatalk_vectors.txt.
 import tpassert as T
-from trackpilot import seatalk as st
+from trackpilot.devices import seatalk as st
 
 VECTORS = "tests/data/seatalk/seatalk_vectors.txt"
 

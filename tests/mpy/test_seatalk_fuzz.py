@@ -4,9 +4,9 @@ import os
 import time
 
 import tpassert as T
-from trackpilot import seatalk as st
-from trackpilot import st2000 as sp
-from trackpilot.stlink import Prng
+from trackpilot.devices import seatalk as st
+from trackpilot.devices import st2000 as sp
+from trackpilot.devices.stlink import Prng
 
 try:
     N = int(os.getenv("TRACKPILOT_FUZZ_N") or 100000)
@@ -129,7 +129,7 @@ def test_fuzz_decoder_direct():
 def test_fuzz_link_and_driver_state_machines():
     # random bus bytes, random polls, random valid-but-hostile pilot datagrams; the driver is
     # re-engaged whenever it stops commanding. Nothing may raise, queues stay bounded.
-    from trackpilot import stlink as sl
+    from trackpilot.devices import stlink as sl
 
     rng = Prng(99)
     sent = []

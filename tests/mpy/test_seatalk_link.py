@@ -1,7 +1,7 @@
 # SeaTalk bus access (stlink.py) against a fake bus: idle wait, parity, echo, collisions, retries.
 import tpassert as T
-from trackpilot import seatalk as st
-from trackpilot import stlink as sl
+from trackpilot.devices import seatalk as st
+from trackpilot.devices import stlink as sl
 
 KEY = bytes((0x86, 0x11, 0x08, 0xF7))
 

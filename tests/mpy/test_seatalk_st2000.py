@@ -1,7 +1,7 @@
 # ST2000+ driver against a small fake pilot that speaks SeaTalk datagrams.
 import tpassert as T
-from trackpilot import seatalk as st
-from trackpilot import st2000 as sp
+from trackpilot.devices import seatalk as st
+from trackpilot.devices import st2000 as sp
 from trackpilot.compat import wrap180
 
 

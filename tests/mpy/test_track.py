@@ -1,8 +1,8 @@
 # track.py under MicroPython: parsing, errors with line numbers, legs, corner warnings.
 import tpassert as t
 from _navtracks import csv_from_m, track_from_m
-from trackpilot import track
-from trackpilot.track import TrackError, parse_track_csv
+from trackpilot.nav import track
+from trackpilot.nav.track import TrackError, parse_track_csv
 
 GOOD = """# comment line
 lon,lat,speed_mps,name,radius_m

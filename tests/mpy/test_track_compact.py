@@ -3,7 +3,7 @@ import gc
 import sys
 
 import tpassert as t
-from trackpilot import track
+from trackpilot.nav import track
 
 sys.path.append("firmware/tools")
 import track_heap  # noqa: E402

@@ -2,8 +2,8 @@
 # against pyubx2 in tests/host/test_ubxcfg_pyubx2.py.
 import tpassert as t
 
-from trackpilot import gnss, ubxcfg
-from trackpilot.fix import Fix
+from trackpilot.devices import gnss, ubxcfg
+from trackpilot.nav.fix import Fix
 
 
 def _ack(frame, ok=True):

@@ -1,8 +1,9 @@
-# Wi-Fi (trackpilot/wifi.py) with a fake `network` module: connect, timeout and back-off, loss and
+# Wi-Fi (trackpilot/board/wifi.py) with a fake `network` module: connect, timeout and back-off, loss and
 # reconnect, the access point only with WPA2, the password never in an event; the state in the
 # status datagram.
 import tpassert as t
-from trackpilot import config, wifi
+from trackpilot import config
+from trackpilot.board import wifi
 
 SECRET = "hunter2-secret"
 AP_SECRET = "ap-secret-123"

@@ -1,6 +1,6 @@
 """The simulated motor controller on the RS232 link.
 
-It is `firmware/trackpilot/motor_sim.py` (written with the firmware's motor link, importable under
+It is `firmware/trackpilot/sim/motor_sim.py` (written with the firmware's motor link, importable under
 CPython): bytes in -> replies out, and the RPM it runs at, which drives the boat's surge model.
 This adapter adds the link-loss fault (the cable is cut: no replies, setpoints never arrive, so the
 controller's own failsafe stops the motor after its timeout) and reply timing.
@@ -13,7 +13,7 @@ from ..mpy import FIRMWARE_DIR
 def _load_motor_sim():
     if str(FIRMWARE_DIR) not in sys.path:
         sys.path.insert(0, str(FIRMWARE_DIR))
-    from trackpilot import motor_sim  # noqa: E402
+    from trackpilot.sim import motor_sim  # noqa: E402
 
     return motor_sim
 

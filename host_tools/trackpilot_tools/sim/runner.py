@@ -97,7 +97,7 @@ class SimRun:
         self.fw_config_bytes = fw_config_bytes
 
         _fw_import()
-        from trackpilot.track import parse_track_csv
+        from trackpilot.nav.track import parse_track_csv
 
         self.track = parse_track_csv(self.track_path.read_text())
         wps = [(w.lat_e7 * 1e-7, w.lon_e7 * 1e-7) for w in self.track.waypoints]

@@ -1,4 +1,4 @@
-"""The simulated pilot's own SeaTalk1 codec (independent of firmware/trackpilot/seatalk.py; checked
+"""The simulated pilot's own SeaTalk1 codec (independent of firmware/trackpilot/devices/seatalk.py; checked
 against the public vectors in shared/data/seatalk/seatalk_vectors.txt in the tests)."""
 
 MODE_STANDBY = 0x00

@@ -9,7 +9,7 @@ Checksums: sha256 (hashlib) where the firmware has it, else CRC32 (binascii); `a
 The host computes the same over the bytes it sent or received.
 
 Usage (what the host sends):
-    import trackpilot.xfer as x; x.info()
+    import trackpilot.board.xfer as x; x.info()
     x.install("/tracks/upload.tmp", "/tracks/active.csv", 812, "ab12...", "/tracks/previous.csv")
     x.ls("/log")                       # [(name, size, digest)] of regular files
     x.digest("/log/0003-00.tpl", 4096) # digest of the first 4096 bytes (resume check)
@@ -96,7 +96,7 @@ def info():
     """Answer: checksum algorithm, .mpy version, platform, maintenance status."""
     st = "?"
     try:
-        from trackpilot import maint
+        from trackpilot.board import maint
 
         st = maint.status()
     except ImportError:

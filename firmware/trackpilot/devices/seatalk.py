@@ -6,7 +6,7 @@ Facts and sources: docs/SEATALK.md (Knauf's SeaTalk reference, dotnet/iot's Seat
 AK-Homberger's remote). A datagram is `CMD ATTR data...`, 3 + (ATTR & 0x0F) bytes long.
 
 Usage:
-    from trackpilot import seatalk as st
+    from trackpilot.devices import seatalk as st
     st.parity_for(0x86, True)            # -> "E": write the command byte with even parity
     dg = st.encode_86(st.KEY_PLUS_1, sender=1)           # b'\\x86\\x11\\x07\\xf8'
     d = st.decode(b'\\x84\\x86\\x26\\x97\\x02\\x00\\x00\\x00\\x08')

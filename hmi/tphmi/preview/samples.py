@@ -1,7 +1,7 @@
 """Representative HmiStatus states for previews and the reference images (tests/data/hmi/).
 
 Usage:
-    from tphmi.samples import SAMPLES, sample
+    from tphmi.preview.samples import SAMPLES, sample
     st = sample("auto_right")
 """
 from tphmi.status import HmiStatus

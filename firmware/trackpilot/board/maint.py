@@ -13,7 +13,7 @@ reset the board 8 s later, possibly in the middle of a transfer. So:
     C REPL. The watchdog is fed by the server loop and by a timer during long commands.
   * Ctrl-C in any other mode (AUTO, ALARM, E-STOP): refused; the guard prints one line
     `trackpilot: maintenance refused: <reason>` and the app goes on. The input is discarded.
-  * The state ends when the host calls `trackpilot.maint.resume()`, after `idle_s` without a byte
+  * The state ends when the host calls `trackpilot.board.maint.resume()`, after `idle_s` without a byte
     from the host, or at `limit_s` after entry, whichever comes first. Then the app restarts
     WITHOUT a reset, in STANDBY, and reloads the active track (a new track is picked up here).
   * A soft reset asked for by the host (Ctrl-D on an empty raw-REPL line, what mpremote does
@@ -22,10 +22,10 @@ reset the board 8 s later, possibly in the middle of a transfer. So:
 
 Host side (docs/DEVICE.md): `trackpilot upload/pull/deploy` probe with Ctrl-B Ctrl-C and read the
 guard's answer, then run `mpremote connect PORT resume ...`, then
-`mpremote connect PORT resume exec "import trackpilot.maint as m; m.resume()"`.
+`mpremote connect PORT resume exec "import trackpilot.board.maint as m; m.resume()"`.
 
 Usage (main.py; the same loop runs the test harness under the unix port):
-    from trackpilot import maint
+    from trackpilot.board import maint
     maint.supervise(app, feed=wiring.feed_watchdog, track_path="/tracks/active.csv",
                     timer_factory=maint.esp32_timer)
 The pure logic is `Gate` (tested in tests/mpy/test_maint.py); `Console`, `Server`, `guard` and
@@ -215,7 +215,7 @@ class Server:
     def _friendly_prompt(self):
         left_s = self.gate.remaining_ms(self.clock()) // 1000
         self.c.write("\r\n%s: %d s left; Ctrl-A raw REPL for mpremote; "
-                     "trackpilot.maint.resume() ends it\r\n" % (ENTERED_PREFIX, left_s))
+                     "trackpilot.board.maint.resume() ends it\r\n" % (ENTERED_PREFIX, left_s))
 
     def serve(self):
         """Returns the reason maintenance ended."""
@@ -331,7 +331,7 @@ async def guard(app, gate, console, note=None, track_path=None):
     maintenance it logs how it ended and reloads the track, inside the new log session."""
     import asyncio
 
-    from trackpilot import modes as M
+    from trackpilot.core import modes as M
 
     if note:
         app.event("MAINT", note)

@@ -8,8 +8,8 @@ commands.
 Usage:
     ref, out = guide_epoch(fix, progress, law, cfg["boat"], guiding=True)
 """
-from trackpilot.fix import RTK_NAMES
-from trackpilot.geo import apply_lever_arm_hp
+from trackpilot.nav.fix import RTK_NAMES
+from trackpilot.nav.geo import apply_lever_arm_hp
 
 EPOCH_S = 0.2  # the nominal period (5 Hz, ubxcfg's CFG-RATE-MEAS); the app passes the measured one
 

@@ -8,8 +8,8 @@ under the unix port (tests/host/_device_main.py).
 import time
 
 from trackpilot.compat import TICKS_MASK
-from trackpilot.simio import SimLink
-from trackpilot.wiring_sim import Wiring as _SimWiring
+from trackpilot.sim.simio import SimLink
+from trackpilot.sim.wiring_sim import Wiring as _SimWiring
 
 
 class BenchLink:

@@ -11,8 +11,8 @@ try:
 except ImportError:  # pragma: no cover
     import uos as os
 
-from trackpilot import simio
-from trackpilot.stlink import Prng
+from trackpilot.sim import simio
+from trackpilot.devices.stlink import Prng
 
 
 class Wiring:
@@ -91,7 +91,7 @@ class Wiring:
             self.io.write(b"%s=%s\n" % (name, value))
 
     def show(self, app, t_ms):
-        from trackpilot import modes as M
+        from trackpilot.core import modes as M
 
         mm = app.mm
         self._out("mode", mm.state_text())

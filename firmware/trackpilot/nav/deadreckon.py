@@ -24,8 +24,8 @@ from the last fix (metres) is a float.
 import math
 
 from trackpilot.compat import ticks_diff
-from trackpilot.fix import RTK_NONE, Fix
-from trackpilot.geo import move_hp
+from trackpilot.nav.fix import RTK_NONE, Fix
+from trackpilot.nav.geo import move_hp
 
 _DEG = math.pi / 180.0
 

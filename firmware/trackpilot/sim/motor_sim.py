@@ -12,7 +12,7 @@ Usage:
     dev.rpm, dev.batt_mv                   # state
 """
 from trackpilot.compat import ticks_diff
-from trackpilot import motor as m
+from trackpilot.devices import motor as m
 
 
 class MotorSim:

@@ -8,7 +8,7 @@ Usage:
     s = gga(fix)          # b"$GPGGA,...*hh\\r\\n"
     s = xte(progress.xte_m, valid=True)
 """
-from trackpilot.fix import RTK_FIXED, RTK_FLOAT, RTK_SINGLE
+from trackpilot.nav.fix import RTK_FIXED, RTK_FLOAT, RTK_SINGLE
 
 
 def _checksum(body):

@@ -1,6 +1,6 @@
 """Wind sensor: NMEA 0183 MWV (`$--MWV,angle,R|T,speed,K|M|N,A|V*hh`) on its own UART.
 
-    from trackpilot.mwv import MwvParser
+    from trackpilot.devices.mwv import MwvParser
     wind = MwvParser()
     if wind.feed(chunk, len(chunk), t_ms):       # number of new valid readings
         use(wind.angle_deg, wind.speed_mps, wind.relative, wind.t_ms)
@@ -9,9 +9,9 @@ Angle: degrees 0..360 clockwise from the bow (R, relative/apparent) or from the 
 theoretical true wind (T). Speed converted to m/s from K (km/h), M (m/s) or N (knots).
 A sentence with status V, an empty or out-of-range field or an unknown unit is counted in
 `invalid` and leaves the last reading untouched (its `t_ms` ages, so the app sees staleness).
-Framing and checksum come from trackpilot.nmea (shared with the GNSS parser).
+Framing and checksum come from trackpilot.devices.nmea (shared with the GNSS parser).
 """
-from trackpilot import nmea
+from trackpilot.devices import nmea
 from trackpilot.compat import const
 
 _KMH_TO_MPS = 1.0 / 3600.0  # (km/h * 1000) -> m/s

@@ -70,7 +70,7 @@ class Wiring:
         if cfg["wifi"]["enabled"] or cfg["wifi"]["ap_enabled"]:
             import network
 
-            from trackpilot.wifi import WifiLink
+            from trackpilot.board.wifi import WifiLink
 
             self.wifi = WifiLink(cfg["wifi"], network)  # started and polled by the app (task_wifi)
         self.hmi = None
@@ -154,7 +154,7 @@ class Wiring:
 
 
 def _seeded_prng():
-    from trackpilot.stlink import Prng
+    from trackpilot.devices.stlink import Prng
 
     b = os.urandom(4)  # two boxes on one bus must not back off in step
     return Prng(b[0] | (b[1] << 8) | (b[2] << 16) | (b[3] << 24))

@@ -35,7 +35,7 @@ Usage:
 import os
 
 from trackpilot.compat import const, ticks_diff
-from trackpilot.logfmt import ControlRecord, LogEncoder
+from trackpilot.record.logfmt import ControlRecord, LogEncoder
 
 _ENOSPC = const(28)
 _MAX_CONTROL_BYTES = const(400)  # worst-case control frame (rotation is decided before encoding)

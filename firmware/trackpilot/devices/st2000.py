@@ -56,7 +56,7 @@ re-stepped to compass + the last relative setpoint; each step is an EV_RECOVER e
 `recover_retries` failed attempts: EV_UNRECOVERABLE, state FAILED.
 """
 from trackpilot.compat import const, ticks_diff, wrap180, wrap360
-from trackpilot import seatalk as st
+from trackpilot.devices import seatalk as st
 
 IDLE = const(0)
 ENGAGING = const(1)

@@ -22,7 +22,7 @@ The seed report's spherical formulas (`seed_dist_bearing`) err by up to 0.67 % o
 (double) and 0.75 % (float32) on the same pairs.
 
 Usage:
-    from trackpilot import geo
+    from trackpilot.nav import geo
     e7 = geo.ddmm_to_e7("5129.4000000", "N")          # 514900000
     d_m, brg_deg = geo.dist_bearing(514900000, 36100000, 514909000, 36110000)
     east_m, north_m = geo.offset_m(514900000, 36100000, 514909000, 36110000)

@@ -13,7 +13,7 @@ waypoint in all (was ~550 B as Waypoint/Leg objects and boxed floats). A leg is 
 two waypoints when asked for; the last few are cached.
 
 Usage:
-    from trackpilot import track
+    from trackpilot.nav import track
     trk, track_id = track.load_file("tracks/middelburg_loop.csv")    # or parse_track_csv(text)
     for w in track.validate(trk, {"turn_radius_m": 9.0}):
         print(w)
@@ -23,7 +23,7 @@ Usage:
 import math
 from array import array
 
-from trackpilot import geo
+from trackpilot.nav import geo
 from trackpilot.compat import wrap180
 
 # Defaults (the parser's limits are arguments; the boat's come from config via `boat`).

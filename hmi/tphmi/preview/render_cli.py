@@ -1,8 +1,8 @@
 """Render HMI pages under MicroPython and print the framebuffers (for `trackpilot hmi preview`).
 
 Run with the unix port (MICROPYPATH has firmware/ and hmi/):
-    micropython hmi/tphmi/render_cli.py --sample auto_right
-    micropython hmi/tphmi/render_cli.py --status state.json [--t-ms 300] [--progress 0.5]
+    micropython hmi/tphmi/preview/render_cli.py --sample auto_right
+    micropython hmi/tphmi/preview/render_cli.py --status state.json [--t-ms 300] [--progress 0.5]
 Output, one line per page: "PAGE <name> <width> <height> <hex of the MONO_VLSB buffer>".
 The status JSON holds HmiStatus fields (docs/HMI.md); unknown fields are an error.
 """
@@ -11,7 +11,7 @@ import sys
 import framebuf
 
 from tphmi.pages import PAGE_NAMES, Pages
-from tphmi.samples import sample
+from tphmi.preview.samples import sample
 from tphmi.status import HmiStatus
 
 W = 128

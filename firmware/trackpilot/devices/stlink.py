@@ -47,7 +47,7 @@ or `lost_ms` since the first failure without a success; OK again at the next dat
 Usage with a fake bus (tests): see tests/mpy/test_seatalk_link.py.
 """
 from trackpilot.compat import const, ticks_add, ticks_diff
-from trackpilot.seatalk import parity_for
+from trackpilot.devices.seatalk import parity_for
 
 IDLE = const(0)
 WAIT = const(1)

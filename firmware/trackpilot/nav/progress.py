@@ -22,14 +22,14 @@ join_nearest() (on start and on re-engaging after a person steered) picks the ne
 the boat has not passed, searching from the current leg ahead up to `join_window_m` of track.
 
 Usage:
-    from trackpilot.progress import Progress
+    from trackpilot.nav.progress import Progress
     prog = Progress(trk)
     prog.update(fix.lat_e7, fix.lon_e7)   # the first update joins the nearest leg ahead
     prog.leg, prog.xte_m, prog.along_m, prog.to_wp_m, prog.finished, prog.finish_reason
 """
 import math
 
-from trackpilot import geo
+from trackpilot.nav import geo
 from trackpilot.compat import const, wrap180, wrap360
 
 RULE_ROBUST = const(0)

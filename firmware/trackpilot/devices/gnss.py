@@ -1,7 +1,7 @@
 """Streaming GNSS parser: mixed NMEA 0183 + UBX + RTCM3 bytes in, one `Fix` per epoch out.
 
-    from trackpilot.fix import Fix
-    from trackpilot.gnss import GnssParser
+    from trackpilot.nav.fix import Fix
+    from trackpilot.devices.gnss import GnssParser
     fix = Fix()
     gp = GnssParser(fix, heading_offset_deg=0.0)
     n_epochs = gp.feed(chunk, len(chunk), t_ms)   # chunk: bytes/bytearray/memoryview
@@ -40,9 +40,9 @@ two intervals in a row agree (0 until then), so the app knows the receiver's rea
 """
 import array
 
-from trackpilot import nmea
+from trackpilot.devices import nmea
 from trackpilot.compat import const, ticks_diff
-from trackpilot.fix import RTK_FIXED, RTK_FLOAT, RTK_NONE, RTK_SINGLE, Fix
+from trackpilot.nav.fix import RTK_FIXED, RTK_FLOAT, RTK_NONE, RTK_SINGLE, Fix
 
 # Holds the longest RTCM3 frame (1029 B) and NAV-SAT up to 91 satellites, so those are checked
 # before they are dropped and a cut one costs nothing; longer frames are skipped by length.

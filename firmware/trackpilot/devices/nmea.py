@@ -3,7 +3,7 @@
 Everything works on a preallocated bytearray and index ranges, so parsing a sentence allocates
 nothing: numbers come out as ints (decimals as thousandths, `*_e3`), empty fields as None.
 
-    from trackpilot.nmea import LineFramer, parse_ddmm_e7
+    from trackpilot.devices.nmea import LineFramer, parse_ddmm_e7
     fr = LineFramer()
     data = b"$GPHDT,274.07,T*03\\r\\n"
     i = 0
@@ -14,7 +14,7 @@ nothing: numbers come out as ints (decimals as thousandths, `*_e3`), empty field
         f = fr.fields                     # Fields view: f.formatter() == FMT_HDT
         heading_e3 = f.e3(1)              # 274070
     parse_ddmm_e7(b"4807.038", 0, 8, ord("N"))   # 481173000 (48.1173000 deg), exact, no float
-(the text API for the same conversion is trackpilot.geo.ddmm_to_e7; both give the same ints)
+(the text API for the same conversion is trackpilot.nav.geo.ddmm_to_e7; both give the same ints)
 """
 from trackpilot.compat import const
 

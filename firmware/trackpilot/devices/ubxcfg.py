@@ -1,6 +1,6 @@
 """Configure the ZED-F9P over its UART: UBX-CFG-VALSET frames and the ACK/NAK exchange.
 
-    from trackpilot import ubxcfg
+    from trackpilot.devices import ubxcfg
     items = ubxcfg.rover_items(rate_ms=200, nmea=("GGA", "RMC"))
     sess = ubxcfg.ConfigSession(ubxcfg.valset_frames(items), timeout_ms=500, retries=3)
     out = sess.start(t_ms)                   # bytes to write to the GNSS UART
