@@ -1,16 +1,18 @@
-"""The application: the asyncio shell around the functional core.
+"""The application: the asyncio shell around the decision core.
+
+The shell only moves bytes and time: each task reads a stream (or a pin, or the clock), hands what
+it read with the time to the core (core/autopilot.py), writes what the core returned (SeaTalk
+bytes, motor frames, throttle, log events and records, the state file, the HMI) and feeds the
+watchdog while every task is alive. Every decision is the core's (docs/MODES.md "Who decides
+what"); the GNSS parser and the receiver configuration (devices/gnss.py, ubxcfg.py), the logger
+and the NTRIP client are the shell's devices: bytes in, records out.
 
 One GNSS epoch (5 Hz, or the receiver's measured rate) is the clock of the control loop: the GNSS
-task feeds bytes to the parser and runs `control_step` once per completed epoch; in AUTO, when
-epochs stop, the supervisor's gap timer runs it on the dead-reckoned position instead
-(docs/MODES.md "GNSS gaps"). Other tasks run the SeaTalk link, the motor link, the
-wind sensor, the inputs (buttons, E-stop, remote), the logger, telemetry and the supervisor that feeds
-the watchdog only while every task is alive.
-
-Everything that decides lives in the core (parsers, progress, guidance, mode machine, drivers); this
-module wires it together and owns no logic of its own beyond the order of calls. The wiring object
-(`wiring_esp32.Wiring` or `wiring_sim.Wiring`) provides streams, pins, clock and storage paths, so
-the same App runs on the ESP32 and in the simulator.
+task feeds bytes to the parser and runs the core's control step once per completed epoch; in AUTO,
+when epochs stop, the supervisor's look (core.on_gnss_watch, every 100 ms) runs it on the
+dead-reckoned position instead (docs/MODES.md "GNSS gaps"). The wiring object
+(`board.wiring_esp32.Wiring` or `sim.wiring_sim.Wiring`) provides streams, pins, clock and
+storage paths, so the same App runs on the ESP32 and in the simulator.
 
 Usage:
     app = App(wiring, cfg, cfg_problems)
@@ -20,19 +22,16 @@ Usage:
 import gc
 
 from trackpilot import VERSION
+from trackpilot.compat import ticks_add, ticks_diff
 from trackpilot.core import modes as M
-from trackpilot.core import control
-from trackpilot.record import logfmt
-from trackpilot.devices import ntrip, seatalk
-from trackpilot.compat import ticks_add, ticks_diff, wrap180
-from trackpilot.nav.fix import RTK_FIXED, RTK_FLOAT, RTK_NAMES, RTK_SINGLE, Fix
+from trackpilot.core.autopilot import Autopilot
+from trackpilot.devices import ntrip
+from trackpilot.nav.fix import Fix
 
 try:
     import asyncio
 except ImportError:  # pragma: no cover
     import uasyncio as asyncio
-
-_RTK_BY_NAME = {"single": RTK_SINGLE, "float": RTK_FLOAT, "fixed": RTK_FIXED}
 
 TASKS = ("gnss", "seatalk_rx", "seatalk_tx", "pilot", "motor", "wind", "inputs", "logger", "telemetry")
 
@@ -45,46 +44,14 @@ def _error_text(e):
 
 class App:
     def __init__(self, wiring, cfg, cfg_problems=(), reset_cause="unknown"):
-        from trackpilot.devices import gnss, motor, mwv, seatalk, st2000, stlink
-        from trackpilot.nav import guidance
+        from trackpilot.devices import gnss
         from trackpilot.record import logger
 
         self.w = wiring
         self.cfg = cfg
         self.clock = wiring.ticks_ms
         self.fix = Fix()
-        mcfg = cfg["modes"]
-        self.mm = M.ModeMachine(mcfg)
-        self.engage_min_rtk = _RTK_BY_NAME[mcfg["engage_min_rtk"]]
-        self.steer_min_rtk = _RTK_BY_NAME[mcfg["steer_min_rtk"]]
-        self.gnss_stale_ms = mcfg["gnss_stale_ms"]
-        bcfg = cfg["boat"]
-        self.gnss = gnss.GnssParser(self.fix, heading_offset_deg=bcfg["heading_offset_deg"])
-        from trackpilot.nav import deadreckon
-
-        self.dr = deadreckon.DeadReckoner()  # the position through GNSS gaps inside AUTO
-        self.gnss_quality_name = "none"  # fixed / float / single / none / dead-reckoning (logged)
-        self.rate_reported_ms = 0  # the receiver's epoch interval last reported
-        self.dr_step_ms = None  # the last control step run by the gap timer
-        self.dr_gap_s = 0.0  # the last dead-reckoned step: time since the fix, 1-sigma
-        self.dr_sigma_m = 0.0
-        self.wind = mwv.MwvParser()
-        pcfg = cfg["pilot"]
-        odd = seatalk.ODD_KNAUF if pcfg["odd_rule"] == "knauf" else seatalk.ODD_DOTNET
-        self.framer = seatalk.Framer()
-        self.stlink = stlink.StLink.from_config(pcfg, framer=self.framer, rand=wiring.rand)
-        self.st_health = stlink.LinkHealth.from_config(pcfg)
-        self.pilot = st2000.St2000.from_config(self.stlink.send, pcfg)
-        self.pilot.odd_rule = odd
-        self.stlink.on_datagram = self.pilot.on_datagram
-        self.stlink.on_sent = self.pilot.on_sent
-        self.motor = motor.MotorLink.from_config(cfg["motor"])
-        self.alarm_reason = ""
-        self._pilot_action = None
-        self.law = guidance.make_law(cfg["guidance"], bcfg)
-        self.track = None
-        self.progress = None
-        self.track_id = ""
+        self.gnss = gnss.GnssParser(self.fix, heading_offset_deg=cfg["boat"]["heading_offset_deg"])
         self.log = logger.Logger(
             wiring.log_dir,
             max_file_bytes=cfg["log"]["max_file_bytes"],
@@ -92,32 +59,13 @@ class App:
             flush_ms=cfg["log"]["flush_ms"],
             statvfs=wiring.statvfs,
         )
-        self.reset_cause = reset_cause
         self.cfg_problems = list(cfg_problems)
-        from trackpilot.config import rejected
-
-        if rejected(self.cfg_problems):
-            # a person must know the boat runs on other settings than the file says: ENGAGE is
-            # refused until they acknowledge (ACK) or the file is fixed (preconditions)
-            # short: the HMI's status datagram carries 60 bytes of text
-            fallback = "last good" if any("last good" in p for p in self.cfg_problems) else "defaults"
-            self.mm.raise_alarm(M.AL_CONFIG, "config rejected: on %s; ACK to accept" % fallback)
-        self.last_epoch_ms = None
-        self.epochs = 0
-        self.rpm_cmd = 0
-        self.heading_cmd_deg = None
-        self.relative_cmd_deg = 0.0
-        self.compass_offset_deg = None  # pilot compass - true heading, filtered
-        self.seed_baseline = cfg["guidance"]["law"] == "seed"
-        self._offset_status_ms = None
-        self._offset_n = 0
-        self._prev_heading = None
-        self.refusal = ""
+        self.core = Autopilot(cfg, self.cfg_problems, self.fix, wiring.rand, rec=self.log.rec)
+        self.reset_cause = reset_cause
         self.alive = {}
         self.stop_event = asyncio.Event()
         self.peak_heap = 0  # largest live heap (bytes, right after a collection)
         self._st_wake = asyncio.Event()
-        self.last_state_save_ms = None
         self._empty = bytearray(0)
         self._last_gc_ms = self.clock()
         self.gc_max_us = 0
@@ -129,8 +77,6 @@ class App:
         except ImportError:  # pragma: no cover
             self.us = lambda: 0
         self.input_period_ms = getattr(wiring, "input_period_ms", 50)  # button sampling
-        self.ref_lat_e7 = 0  # the boat's reference point (lever arm applied), last epoch
-        self.ref_lon_e7 = 0
         self.profile = False  # measure each control epoch (profiled_feed); sim_main --profile
         self.profile_out = None  # an open file for the samples (else they stay in prof_us/prof_alloc)
         self.prof_us = []
@@ -139,15 +85,60 @@ class App:
         self.on_stable = None  # called once after bootguard.STABLE_MS with every task alive
         self._stable_due_ms = None
 
-    # ------------------------------------------------------------------ track and state
+    def __getattr__(self, name):
+        # the core's state (mm, progress, pilot, refusal ...) for the HMI, maintenance and tests
+        if name == "core":
+            raise AttributeError(name)
+        return getattr(self.core, name)
+
+    # ------------------------------------------------------------------ the core's outputs
+    def flush(self):
+        """Write what the core left: events, the control record, the state file; wake the
+        SeaTalk writer when keys were queued. Called after every call into the core."""
+        core = self.core
+        while True:
+            ev = core.pop_event()
+            if ev is None:
+                break
+            self.log.event(ev[0], ev[1], ev[2])
+            self.w.debug("%s %s" % (ev[0], ev[1]))
+        hmi = getattr(self.w, "hmi", None)
+        if hmi is not None:
+            for kind, text in hmi.drain_events():
+                self.event(kind, text)
+        if core.rec_ready:
+            core.rec_ready = False
+            self.log.control(core.rec)
+        if core.state_due is not None:
+            st = core.state_due
+            core.state_due = None
+            self.write_state(st)
+        if core.wake_seatalk:
+            core.wake_seatalk = False
+            self._st_wake.set()
+
+    def drain_events(self):
+        """The parts' pending events through the core, then out (tests and the device harness
+        poke the mode machine directly)."""
+        self.core.now_ms = self.clock()
+        self.core.drain_events()
+        self.flush()
+
+    def event(self, kind, text):
+        t = self.clock()
+        self.log.event(kind, text, t)
+        self.w.debug("%s %s" % (kind, text))
+
+    # ------------------------------------------------------------------ track and state files
     def load_track(self, path):
-        """Validate and activate a track file; only in STANDBY. Never raises: a bad or too large
-        file, or one that does not fit in memory, is refused with a TRACK event and the active
-        track stays. Returns (ok, message)."""
+        """Read, validate and hand a track file to the core; only in STANDBY. Never raises: a bad
+        or too large file, or one that does not fit in memory, is refused with a TRACK event and
+        the active track stays. Returns (ok, message)."""
         from trackpilot.nav import progress, track
 
-        if self.mm.mode == M.AUTO:
-            return False, "track not changed: only in STANDBY"
+        refusal = self.core.track_refusal()
+        if refusal:
+            return False, refusal
         new = None
         try:
             new, new_id = track.load_file(path)
@@ -166,10 +157,8 @@ class App:
             msg = "track %s rejected: %s" % (path, _error_text(e))
             self.event("TRACK", msg)
             return False, msg
-        self.track = new
-        self.progress = prog
-        self.track_id = new_id
-        self.event("TRACK", "loaded %s: %d waypoints, id %s" % (path, len(new.waypoints), self.track_id))
+        self.core.set_track(new, new_id, prog, self.clock())
+        self.event("TRACK", "loaded %s: %d waypoints, id %s" % (path, len(new.waypoints), new_id))
         for w in warnings:
             self.event("TRACK", "warning: " + w)
         self.log.track(new)
@@ -177,7 +166,7 @@ class App:
         return True, "ok"
 
     def restore_state(self):
-        """After a reset: know where we were (leg), but stay in STANDBY."""
+        """After a reset: the state file to the core (it knows the leg, and stays in STANDBY)."""
         import json
 
         try:
@@ -185,132 +174,21 @@ class App:
                 st = json.loads(f.read())
         except (OSError, ValueError):
             return
-        if st.get("track_id") == self.track_id and self.progress is not None:
-            leg = int(st.get("leg", 0))
-            if 0 <= leg < len(self.track.waypoints) - 1:
-                self.progress.set_leg(leg)
-                self.event("STATE", "restored: leg %d of track %s (mode was %s); staying in STANDBY" % (
-                    leg, self.track_id, st.get("mode", "?")))
+        if isinstance(st, dict):
+            self.core.restore_state(st, self.clock())
+            self.flush()
 
-    def save_state(self, t_ms):
+    def write_state(self, st):
         import json
 
         from trackpilot.config import write_atomic
 
-        if self.progress is None:
-            return
-        st = {"track_id": self.track_id, "leg": self.progress.leg, "mode": M.MODE_NAMES[self.mm.mode]}
         try:
             write_atomic(self.w.state_path, json.dumps(st))
         except OSError as e:
             self.event("FAULT", "state not saved: %s" % e)
-        self.last_state_save_ms = t_ms
 
-    # ------------------------------------------------------------------ events and logging
-    def event(self, kind, text):
-        t = self.clock()
-        self.log.event(kind, text, t)
-        self.w.debug("%s %s" % (kind, text))
-
-    def drain_events(self):
-        for kind, text in self.mm.drain_events():
-            self.event(kind, text)
-            if kind == "ALARM":
-                self.alarm_reason = text
-        while True:
-            ev = self.pilot.pop_event()
-            if ev is None:
-                break
-            self.on_pilot_event(ev[0], ev[1], ev[2])
-        while True:
-            ev = self.motor.pop_event()
-            if ev is None:
-                break
-            self.on_motor_event(ev[0], ev[1], ev[2])
-        hmi = getattr(self.w, "hmi", None)
-        if hmi is not None:
-            for kind, text in hmi.drain_events():
-                self.event(kind, text)
-        for kind, text in self.mm.drain_events():  # reactions above may have changed modes
-            self.event(kind, text)
-            if kind == "ALARM":
-                self.alarm_reason = text
-
-    def on_pilot_event(self, kind, t, text):
-        self.event("PILOT", "%s: %s" % (kind, text))
-        if kind == "TAKEOVER":
-            self.mm.takeover(t, text)
-        elif kind == "HANG":
-            self.mm.pilot_hang(t, text)
-        elif kind == "RECOVERED":
-            self.mm.pilot_recovered(t)
-        elif kind == "OWN_AUTO_UNDONE":
-            self.mm.raise_alarm(M.AL_TAKEOVER, text)  # sounds again: our key had undone theirs
-        elif kind in ("UNRECOVERABLE", "ENGAGE_FAILED"):
-            if self.mm.mode == M.AUTO:
-                self.mm.pilot_lost(t, text)
-
-    def on_link_health(self, h, t, text=""):
-        """The SeaTalk link's verdict (stlink.LinkHealth): it cannot send keys, so the firmware
-        cannot steer. Alarm, then ALARM mode (the pilot keeps its last course in Auto); the
-        alarm clears when a datagram goes out again, AUTO only comes back by a person."""
-        from trackpilot.devices import stlink
-
-        if h == stlink.H_NONE:
-            return
-        why = self.st_health.reason(t) + (("; last: " + text) if text else "")
-        if h == stlink.H_ALARM:
-            self.mm.set_alarm(M.AL_SEATALK, True, why)
-        elif h == stlink.H_LOST:
-            self.event("SEATALK", "cannot send keys: " + why)
-            self.mm.seatalk_lost(t, why)
-        else:
-            self.mm.set_alarm(M.AL_SEATALK, False, "SeaTalk datagram sent again")
-        self.drain_events()
-        self.apply_pilot(t)
-
-    def on_motor_event(self, kind, t, text):
-        self.event("MOTOR", "%s: %s" % (kind, text))
-        if kind == "MOTOR_LINK_LOST":
-            self.mm.motor_link(t, False, text)
-        elif kind == "MOTOR_LINK_OK":
-            self.mm.motor_link(t, True, text)
-        elif kind == "LOW_BATTERY":
-            self.mm.set_alarm(M.AL_LOW_BATTERY, True, text)
-        elif kind == "BATTERY_OK":
-            self.mm.set_alarm(M.AL_LOW_BATTERY, False, text)
-
-    # ------------------------------------------------------------------ the person's commands
-    def preconditions(self, t_ms):
-        """The first engage precondition that fails, or None."""
-        if self.mm.alarms & M.AL_CONFIG and not self.mm.acked & M.AL_CONFIG:
-            return "config rejected: ACK to sail on fallback"
-        if self.track is None:
-            return "no valid track loaded"
-        fix = self.fix
-        if self.last_epoch_ms is None or ticks_diff(t_ms, self.last_epoch_ms) > self.gnss_stale_ms:
-            return "no GNSS fix (stale)"
-        if not fix.pos_valid:
-            return "no GNSS position"
-        if fix.rtk < self.engage_min_rtk:
-            return "RTK %s, need %s" % (RTK_NAMES[fix.rtk], RTK_NAMES[self.engage_min_rtk])
-        if not fix.heading_valid:
-            return "no valid dual-antenna heading"
-        if not self.pilot.status_fresh(t_ms):
-            return "tiller pilot not answering on SeaTalk"
-        if self.pilot.mode not in (seatalk.MODE_STANDBY, seatalk.MODE_AUTO):
-            return "tiller pilot in %s mode" % seatalk.MODE_NAMES[self.pilot.mode]
-        if self.cfg["motor"]["link"] == "rs232" and self.cfg["motor"]["expect_replies"] and self.motor.link_ok is not True:
-            return "motor link down"
-        max_age = self.cfg["modes"]["correction_max_age_s"]
-        if max_age > 0:
-            age = self.correction_age_s(t_ms)
-            if age is None:
-                return "no RTK corrections received"
-            if age > max_age:
-                return "RTK corrections %.0f s old (limit %.0f s)" % (age, max_age)
-        return None
-
+    # ------------------------------------------------------------------ inputs to the core
     def correction_age_s(self, t_ms):
         """Age of the last RTCM frame forwarded to the receiver, None if none (or no NTRIP)."""
         if not self.cfg["ntrip"]["enabled"]:
@@ -324,302 +202,17 @@ class App:
         return nmea_out.gga(self.fix) if self.fix.pos_valid else None
 
     def command(self, name, source="HMI"):
-        """A person's command (HMI button, remote box, host)."""
+        """A person's command (HMI button, remote box, host): to the core; PAGE turns the display."""
         t = self.clock()
-        if name == "STANDBY":
-            self.mm.standby(t, source)
-            self.apply_pilot(t)
-        elif name == "ENGAGE":
-            if self.progress is not None and self.fix.pos_valid and self.progress.finished:
-                self.progress.restart()
-            refusal = self.preconditions(t)
-            ok, why = self.mm.engage(t, refusal, source)
-            self.refusal = why
-            if ok:
-                self.progress.join_nearest(self.ref_lat_e7, self.ref_lon_e7)
-                self.law.reset()
-                self._pilot_action = None
-                self.apply_pilot(t)
-                self.event("NAV", "joined leg %d" % self.progress.leg)
-        elif name in ("NEXT_WP", "PREV_WP"):
-            if self.progress is not None:
-                if name == "NEXT_WP":
-                    self.progress.skip()
-                else:
-                    self.progress.back()
-                self.law.reset()
-                self.event("NAV", "%s by %s: leg %d" % (name, source, self.progress.leg))
-        elif name == "ACK":
-            if self.mm.estop_latched:
-                self.mm.estop_clear(t, self.w.estop_active(), source)
-            self.mm.ack(t, source)
-        elif name == "PAGE":
+        if name == "PAGE":
             self.w.next_page()
-        self.drain_events()
+        self.core.on_key(name, source, t, self.correction_age_s(t))
+        self.flush()
 
-    # ------------------------------------------------------------------ the control step
-    def control_step(self, t_ms, epoch=True):
-        """Once per GNSS epoch: navigate, guide, command the pilot and the motor, log. With
-        epoch=False, run by the gap timer (gnss_watch) when epochs stopped: the same step on the
-        dead-reckoned position."""
-        fix = self.fix
-        dt_s = control.epoch_dt_s(self.gnss.interval_ms)
-        if epoch:
-            self.last_epoch_ms = t_ms
-            self.dr_step_ms = None
-            self.epochs += 1
-            # the inputs at the log's resolution (0.01 deg, 1 mm/s ...): replay reproduces every command
-            q = logfmt.quantized
-            fix.heading_deg = q("heading_deg", fix.heading_deg)
-            fix.heading_acc_deg = q("heading_acc_deg", fix.heading_acc_deg)
-            fix.sog_mps = q("sog_mps", fix.sog_mps)
-            fix.cog_deg = q("cog_deg", fix.cog_deg)
-            fix.h_acc_m = q("h_acc_m", fix.h_acc_m)
-            ok, why = control.gnss_ok(fix, self.steer_min_rtk)
-            self.check_rate()
-        else:
-            ok, why = False, "no GNSS epoch for %d ms" % ticks_diff(t_ms, self.last_epoch_ms)
-            self.dr_step_ms = t_ms
-        nav = self.navigation_fix(t_ms, ok, epoch, dt_s)
-        dr = nav is not fix
-        self.mm.gnss_quality(t_ms, ok, why, dr=dr, bad_s=self.dr.hold_s if dr else None)
-        self.note_quality(ok, dr)
-        mm = self.mm
-        guiding = mm.mode == M.AUTO and not mm.holding and (not mm.degraded or mm.dead_reckoning)
-        leg_before = self.progress.leg if self.progress is not None else 0
-        ref, out = control.guide_epoch(nav, self.progress, self.law, self.cfg["boat"], guiding, dt_s)
-        if ref is not None:
-            self.ref_lat_e7 = ref[0]
-            self.ref_lon_e7 = ref[1]
-            if self.progress.leg != leg_before:
-                self.event("NAV", "leg %d -> %d" % (leg_before, self.progress.leg))
-                self.save_state(t_ms)
-        if out is not None:
-            self.heading_cmd_deg = out.heading_cmd_deg
-            mm.xte(t_ms, self.progress.xte_m, 2.0 if fix.rtk == RTK_FLOAT else 1.0)
-            if self.progress.finished:
-                mm.arrived(t_ms, self.progress.finish_reason)
-        self.drain_events()
-        # the pilot; the true heading and speed let it tell a pilot that stopped steering
-        if epoch:
-            self.pilot.note_motion(t_ms, fix.heading_deg if fix.heading_valid else None,
-                                   fix.sog_mps if fix.vel_valid else None)
-        self.apply_pilot(t_ms)
-        if epoch:
-            self.update_compass_offset(t_ms)
-        fix = nav
-        if mm.pilot == M.PILOT_STEER and out is not None and fix.heading_valid and self.pilot.commanding():
-            # in the pilot's own compass frame: cancels its compass error (seed report 4.7)
-            # the seed baseline keeps its pinned form: course = pilot compass + relative setpoint
-            if self.compass_offset_deg is not None and not self.seed_baseline:
-                target = out.heading_cmd_deg + self.compass_offset_deg
-                self.relative_cmd_deg = wrap180(target - self.pilot.heading_deg)
-            else:
-                self.relative_cmd_deg = wrap180(out.heading_cmd_deg - fix.heading_deg)
-            self.pilot.steer_to(self.relative_cmd_deg, t_ms)
-        # the motor
-        self.rpm_cmd = self.motor_rpm(out)
-        self.motor.set_rpm(self.rpm_cmd)
-        self.drain_events()
-        self.log_control(t_ms, out, nav)
-        if self.last_state_save_ms is None or ticks_diff(t_ms, self.last_state_save_ms) > 10000:
-            self.save_state(t_ms)
-        self._st_wake.set()
-
-    def water_speed_cmd_mps(self):
-        """Speed through water the motor is set for (the RPM map inverted; measured RPM if the
-        controller reports it)."""
-        mc = self.cfg["motor"]
-        rpm = self.motor.rpm if self.motor.rpm is not None else self.rpm_cmd
-        return max(0.0, (rpm - mc["rpm_offset"]) / mc["rpm_per_mps"])
-
-    def dr_heading(self, t_ms):
-        """True heading from the pilot's compass and the learnt offset, or None."""
-        p = self.pilot
-        if self.compass_offset_deg is None or p.heading_deg is None or not p.status_fresh(t_ms):
-            return None
-        return (p.heading_deg - self.compass_offset_deg) % 360.0
-
-    def navigation_fix(self, t_ms, ok, epoch, dt_s):
-        """The epoch to steer by: the GNSS fix when it is steerable (and the dead reckoner is
-        anchored to it), else the dead-reckoned one, else the GNSS fix (not steerable)."""
-        fix = self.fix
-        dr = self.dr
-        if ok:
-            dr.good_fix(t_ms, fix, self.water_speed_cmd_mps(), dt_s)
-            return fix
-        if self.mm.mode != M.AUTO or not dr.valid:
-            return fix
-        h = self.dr_heading(t_ms)
-        if h is None:
-            return fix
-        if epoch and fix.pos_valid and fix.rtk >= self.steer_min_rtk:
-            # only the dual-antenna heading is missing: the RTK position with the compass heading
-            dr.good_fix(t_ms, fix, self.water_speed_cmd_mps(), dt_s)
-        # a degraded epoch's own Doppler velocity (a single fix has it to a few cm/s) beats the
-        # water speed and current; its 1-2 m position does not beat dead reckoning (docs/GNSS.md)
-        vel = (fix.sog_mps, fix.cog_deg) if epoch and fix.vel_valid and fix.pos_valid else None
-        if not dr.predict(t_ms, h, self.water_speed_cmd_mps(), vel):
-            return fix
-        self.dr_gap_s = dr.gap_s(t_ms)
-        self.dr_sigma_m = dr.sigma_m
-        return dr.fix
-
-    def note_quality(self, ok, dead_reckoning):
-        """The quality state steered by, logged on each change (with the DR uncertainty)."""
-        fix = self.fix
-        if dead_reckoning:
-            name = "dead-reckoning"
-        elif not fix.pos_valid or self.last_epoch_ms is None:
-            name = "none"
-        else:
-            name = RTK_NAMES[fix.rtk]
-        if name != self.gnss_quality_name:
-            extra = ""
-            if name == "dead-reckoning":
-                extra = " (from the fix %.1f s ago, 1-sigma %.1f m, growing %.2f m/s)" % (
-                    self.dr.gap_s(self.clock()), self.dr.sigma_m, self.dr.sigma_rate_mps)
-            elif self.gnss_quality_name == "dead-reckoning":
-                extra = " (dead reckoning ended: %.1f s, 1-sigma %.1f m)" % (
-                    self.dr_gap_s, self.dr_sigma_m)
-            if name == "float":
-                extra += " (steering with the XTE alarm limit doubled)"
-            self.event("GNSS", "quality %s -> %s%s" % (self.gnss_quality_name, name, extra))
-            self.gnss_quality_name = name
-
-    def check_rate(self):
-        """The receiver's measured epoch interval against the configured one (ubxcfg, 5 Hz)."""
-        from trackpilot.devices import gnss
-
-        iv = self.gnss.interval_ms
-        if iv and iv != self.rate_reported_ms:
-            self.rate_reported_ms = iv
-            self.event("GNSS", "receiver epoch interval %d ms (%.1f Hz)%s" % (
-                iv, 1000.0 / iv, "" if iv == gnss.EPOCH_MS else
-                ", configured %d ms: the control step uses the measured one" % gnss.EPOCH_MS))
-
-    def gnss_watch(self, t_ms):
-        """The gap timer (every 100 ms, AUTO only): once epochs stopped, the control step runs on
-        the dead-reckoned position (motor slowed at once), one step per epoch interval
-        (deadreckon.gap_step_due)."""
-        from trackpilot.nav.deadreckon import gap_step_due
-
-        if self.mm.mode == M.AUTO and gap_step_due(t_ms, self.last_epoch_ms, self.gnss.interval_ms,
-                                                   self.dr_step_ms):
-            self.control_step(t_ms, epoch=False)
-
-    def apply_pilot(self, t_ms):
-        """Turn the mode machine's pilot decision into driver commands, once per change."""
-        want = self.mm.pilot
-        key = want * 8 + self.mm.mode  # AUTO(degraded) -> ALARM keeps PILOT_HOLD: still a change
-        if key == self._pilot_action:
-            return
-        self._pilot_action = key
-        if want == M.PILOT_STANDBY:
-            self.pilot.standby(t_ms)
-        elif want == M.PILOT_STEER:
-            if not self.pilot.commanding():
-                self.pilot.engage(t_ms)
-        elif want == M.PILOT_LEAVE:
-            if self.pilot.watching():
-                self.pilot.let_go(t_ms, "mode %s" % self.mm.state_text())
-        elif want == M.PILOT_HOLD and self.mm.mode != M.AUTO:
-            # ALARM: the pilot keeps its course in Auto; the driver sends nothing on its own
-            self.pilot.hold(t_ms, "mode %s" % self.mm.state_text())
-        # PILOT_HOLD in AUTO(degraded/hold): no new steps; hang recovery stays allowed (AUTO).
-        # PILOT_RECOVER: the driver runs Standby -> Auto -> re-step itself (st2000.py).
-        self._st_wake.set()
-
-    def update_compass_offset(self, t_ms):
-        """Low-pass estimate of (pilot compass - true heading). Steering to command + offset in the
-        pilot's frame cancels its compass error like the instantaneous difference did, without
-        feeding wave yaw and the compass's lag and 2 Hz sampling into every course step (which
-        cost keystrokes and ~0.1 m RMS). New compass readings only, and only while the boat is not
-        turning fast (the compass lags the true heading in a turn)."""
-        p = self.pilot
-        fix = self.fix
-        tc_s = self.cfg["pilot"]["compass_offset_tc_s"]
-        rate_dps = None
-        if fix.heading_valid:
-            if self._prev_heading is not None:
-                dt_s = ticks_diff(t_ms, self._prev_heading[0]) / 1000.0
-                if dt_s > 0:
-                    rate_dps = wrap180(fix.heading_deg - self._prev_heading[1]) / dt_s
-            self._prev_heading = (t_ms, fix.heading_deg)
-        else:
-            self._prev_heading = None
-        if tc_s <= 0:
-            self.compass_offset_deg = None  # switched off: the seed report's method
-            return
-        if p.heading_deg is None or not p.status_fresh(t_ms):
-            return
-        if p.last_status_ms == self._offset_status_ms or rate_dps is None:
-            return
-        self._offset_status_ms = p.last_status_ms
-        if abs(rate_dps) > self.cfg["pilot"]["compass_offset_max_rate_dps"]:
-            return
-        sample = wrap180(p.heading_deg - fix.heading_deg)
-        if self.compass_offset_deg is None:
-            self.compass_offset_deg = sample
-            self._offset_n = 1
-            return
-        self._offset_n += 1
-        # a plain mean over the first samples, then an exponential filter (one sample a second)
-        alpha = max(1.0 / self._offset_n, 1.0 / tc_s)
-        self.compass_offset_deg = wrap180(self.compass_offset_deg + alpha * wrap180(sample - self.compass_offset_deg))
-
-    def motor_rpm(self, out):
-        mc = self.cfg["motor"]
-        pol = self.mm.motor
-        if pol == M.MOTOR_TRACK and out is not None:
-            rpm = mc["rpm_offset"] + mc["rpm_per_mps"] * out.speed_cmd_mps
-            if mc["sog_loop"] and self.fix.vel_valid:
-                corr = mc["sog_loop_gain_rpm_per_mps"] * (out.speed_cmd_mps - self.fix.sog_mps)
-                lim = mc["sog_loop_limit_rpm"]
-                rpm += max(-lim, min(lim, corr))
-            return int(max(0, min(mc["rpm_max"], rpm)))
-        if pol == M.MOTOR_TRACK:  # AUTO without a guidance output this epoch: keep the last
-            return self.rpm_cmd
-        if pol == M.MOTOR_SLOW:
-            return mc["slow_rpm"]
-        if pol == M.MOTOR_HOLD_CAPPED:
-            return min(self.rpm_cmd, mc["slow_rpm"])
-        if pol == M.MOTOR_ZERO:
-            return 0
-        return mc["release_rpm"]
-
-    def log_control(self, t_ms, out, fix=None):
-        """fix: the position steered by (the dead-reckoned one in a gap: rtk none, h_acc its
-        growing 1-sigma uncertainty); default the last GNSS epoch."""
-        rec = self.log.rec
-        if fix is None:
-            fix = self.fix
-        rec.fill_fix(fix)
-        rec.t_ms = t_ms
-        age = self.correction_age_s(t_ms)
-        rec.corr_age_s = -1.0 if age is None else age
-        p = self.progress
-        rec.leg = p.leg if p else 0
-        rec.xte_m = p.xte_m if p else 0.0
-        rec.heading_cmd_deg = out.heading_cmd_deg if out else (self.heading_cmd_deg or 0.0)
-        rec.speed_cmd_mps = out.speed_cmd_mps if out else 0.0
-        rec.path_xte_m = getattr(out, "path_xte_m", rec.xte_m) if out else rec.xte_m
-        ps = self.pilot
-        rec.pilot_mode = ps.mode if ps.mode is not None else seatalk.MODE_UNKNOWN
-        rec.compass_deg = ps.heading_deg or 0.0
-        rec.locked_deg = ps.course_deg or 0.0
-        rec.rudder_deg = ps.rudder_deg or 0.0
-        rec.keys_sent = ps.keys_sent
-        rec.keys_net_deg = getattr(ps, "keys_net_deg", 0)
-        rec.rpm_set = self.rpm_cmd
-        rec.rpm = self.motor.rpm or 0
-        rec.battery_v = self.motor.battery_v or 0.0
-        rec.wind_angle_deg = self.wind.angle_deg
-        rec.wind_speed_mps = self.wind.speed_mps
-        rec.alarms = self.mm.alarms
-        rec.mode = self.mm.mode
-        rec.guided = 1 if out is not None else 0
-        self.log.control(rec)
+    def control_step(self, t_ms):
+        """One completed GNSS epoch: the core's control step, then its outputs."""
+        self.core.on_fix(t_ms, self.gnss.interval_ms, self.correction_age_s(t_ms))
+        self.flush()
 
     # ------------------------------------------------------------------ tasks
     def grid_ms(self, period_ms):
@@ -725,69 +318,47 @@ class App:
             self.beat("seatalk_rx")
             if not n:
                 continue
-            t = self.clock()
-            for i in range(n):
-                self.stlink.on_rx(buf[i], t)  # echo check; other bytes -> framer -> pilot
-            self.pilot.poll(t)
-            self._st_wake.set()
-            self.drain_events()
+            self.core.on_seatalk_rx(buf, n, self.clock())
+            self.flush()
 
     async def task_seatalk_tx(self):
-        """Drive the SeaTalk bus-access state machine; one byte at a time with its parity."""
+        """The SeaTalk bus: one byte at a time with its parity, as the core's link says."""
         from trackpilot.devices import stlink
 
         uart = self.w.seatalk_uart
+        core = self.core
         one = bytearray(1)
         while True:
             self.beat("seatalk_tx")
             t = self.clock()
-            self.pilot.poll(t)  # stepping, confirmations, timers: queues keystrokes on the link
-            act = self.stlink.poll(t)
+            act = core.seatalk_tx(t)
             kind = act[0]
             if kind == stlink.WRITE:
                 one[0] = act[1]
                 uart.init(parity=0 if act[2] == "E" else 1)  # waits for TX to drain on the ESP32
                 uart.write(one)
                 await asyncio.sleep_ms(0)
-            elif kind == stlink.WAIT:
+            else:
+                # WAIT: until the link's time; idle: until the pilot's own timers, or a new epoch,
+                # a received byte or a queued key wakes it. At least 1 ms: a wait that is already
+                # due must still let time pass, or this task spins without the clock (and the
+                # bus) moving on; that once happened when st2000.next_due_ms said "now" for a key
+                # poll() held back.
                 self._st_wake.clear()
-                # at least 1 ms: defence in depth. A wait that is already due must still let time
-                # pass, or this task spins without the clock (and the bus) moving on; that once
-                # happened when st2000.next_due_ms said "now" for a key poll() held back.
-                dt = max(1, ticks_diff(act[1], t))
+                due = ticks_diff(act[1], t) if kind == stlink.WAIT else core.pilot_next_due_ms(t)
                 try:
-                    await asyncio.wait_for_ms(self._st_wake.wait(), dt)
+                    await asyncio.wait_for_ms(self._st_wake.wait(), max(1, due))
                 except asyncio.TimeoutError:
                     pass
-            else:  # idle: wake on a new epoch, a received byte or the pilot's own timers
-                self._st_wake.clear()
-                wait_ms = max(1, self.pilot.next_due_ms(t))  # >= 1 ms: see above
-                try:
-                    await asyncio.wait_for_ms(self._st_wake.wait(), wait_ms)
-                except asyncio.TimeoutError:
-                    pass
-            while True:
-                ev = self.stlink.pop_event()
-                if ev is None:
-                    break
-                if ev[0] != stlink.EV_SENT:
-                    self.event("SEATALK", "%s: %s" % (stlink.EV_NAMES[ev[0]], ev[2]))
-                if ev[0] == stlink.EV_FAILED:
-                    self.pilot.on_send_failed(ev[3], t)
-                    self.on_link_health(self.st_health.on_failed(ev[1]), t, ev[2])
-                elif ev[0] == stlink.EV_SENT:
-                    self.on_link_health(self.st_health.on_sent(ev[1]), t)
+            core.on_seatalk_tx_done(t, self.clock())
+            self.flush()
 
     async def task_pilot(self):
-        """Timers of the pilot driver: confirmations, hang detection, status timeout."""
+        """The pilot driver's timers: confirmations, hang detection, status timeout."""
         while True:
             self.beat("pilot")
-            t = self.clock()
-            self.pilot.poll(t)
-            self.drain_events()
-            self.on_link_health(self.st_health.poll(t), t)  # failures going on for too long
-            self.apply_pilot(t)
-            self._st_wake.set()
+            self.core.on_pilot_tick(self.clock())
+            self.flush()
             await asyncio.sleep_ms(self.grid_ms(100))
 
     async def task_motor(self):
@@ -801,18 +372,17 @@ class App:
             while True:
                 n = await reader.readinto(mv)
                 if n:
-                    self.motor.feed(mv[:n], self.clock())
+                    self.core.on_motor_rx(mv[:n], self.clock())
 
         if reader is not None:
             asyncio.create_task(rx())
         while True:
             self.beat("motor")
-            t = self.clock()
-            frame = self.motor.poll(t)  # also runs the link-loss and battery timers
+            frame = self.core.motor_tick(self.clock())  # also runs the link-loss and battery timers
             if frame and uart is not None:
                 uart.write(frame)
-            self.w.set_throttle(self.motor.duty_u16() / 65535.0)
-            self.drain_events()
+            self.w.set_throttle(self.core.throttle_duty)
+            self.flush()
             await asyncio.sleep_ms(self.grid_ms(period))
 
     async def task_wind(self):
@@ -825,20 +395,15 @@ class App:
             n = await reader.readinto(mv)
             self.beat("wind")
             if n:
-                self.wind.feed(mv, n, self.clock())
+                self.core.on_wind_rx(mv, n, self.clock())
 
     async def task_inputs(self):
-        """Buttons, E-stop, remote commands; LEDs and buzzer; display."""
-        estop_was = False
+        """E-stop and commands (buttons, remote) to the core; LEDs, buzzer and display."""
         while True:
             self.beat("inputs")
             t = self.clock()
-            active = self.w.estop_active()
-            if active and not estop_was:
-                self.mm.estop(t, True)
-                self.apply_pilot(t)
-                self.drain_events()
-            estop_was = active
+            self.core.on_estop(self.w.estop_active(), t)
+            self.flush()
             for name, source in self.w.poll_commands(t):
                 self.command(name, source)
             self.w.show(self, t)
@@ -856,9 +421,9 @@ class App:
 
         fix = self.fix
         out = nmea_out.gga(fix) + nmea_out.rmc(fix) + nmea_out.hdt(fix)
-        p = self.progress
+        p = self.core.progress
         if p is not None and fix.pos_valid:
-            out += nmea_out.xte(p.xte_m, valid=self.mm.mode == M.AUTO)
+            out += nmea_out.xte(p.xte_m, valid=self.core.mm.mode == M.AUTO)
         return out
 
     async def task_telemetry(self):
@@ -870,19 +435,16 @@ class App:
             await asyncio.sleep_ms(self.grid_ms(period))
 
     async def task_supervisor(self):
-        """GNSS staleness, task heartbeats, watchdog, heap watermark."""
+        """An epoch closed by its timeout, the receiver configuration, the core's GNSS watch (gap
+        timer, staleness), NTRIP, task heartbeats and the watchdog, GC and the heap watermark."""
         while True:
             t = self.clock()
             if self.gnss.feed(self._empty, 0, t):  # an epoch closed by its timeout (no more bytes)
                 self.control_step(t)
             if hasattr(self, "gnss_cfg"):
                 self.gnss_config_poll(t)
-            self.gnss_watch(t)
-            if self.mm.mode != M.AUTO and (self.last_epoch_ms is None or
-                                           ticks_diff(t, self.last_epoch_ms) > self.gnss_stale_ms):
-                self.mm.gnss_quality(t, False, "GNSS stale (no epoch for %d ms)" % self.gnss_stale_ms)
-                self.drain_events()
-                self.apply_pilot(t)
+            self.core.on_gnss_watch(t, self.gnss.interval_ms, self.correction_age_s(t))
+            self.flush()
             self.watch_ntrip()
             dead = self.dead_tasks(t)
             if dead:
@@ -959,9 +521,9 @@ class App:
         t = self.clock()
         self.runs = getattr(self, "runs", 0) + 1
         cause = self.reset_cause if self.runs == 1 else "restart after maintenance (no reset)"
-        self.log.open_session(VERSION, self.cfg_hash(), self.track_id, cause, t)
+        self.log.open_session(VERSION, self.cfg_hash(), self.core.track_id, cause, t)
         self.event("BOOT", "trackpilot %s, %s, mode %s (never engages by itself)" % (
-            VERSION, cause, M.MODE_NAMES[self.mm.mode]))
+            VERSION, cause, M.MODE_NAMES[self.core.mm.mode]))
         for p in self.cfg_problems:
             self.event("CONFIG", p)
         for coro in (
