@@ -58,3 +58,17 @@ def test_monitor_watches_a_simulated_run(tmp_path):
     out, err = mon.communicate(timeout=60)
     assert "5 status datagrams, 0 bad" in err, err
     assert "RTK" in out and "pilot" in out
+
+
+def test_text_view_drops_a_cleared_alarm_and_marks_acknowledged():
+    from tphmi.samples import sample
+
+    from trackpilot_tools.monitor_cmd import render
+
+    st = sample("auto_right")
+    st.alarms, st.sounding, st.alarm_reason = 2 | 8, 8, "gnss: RTK lost"
+    text = "\n".join(render(st, 0.1, 3.0, "udp"))
+    assert "alarm   gnss: RTK lost" in text and "(ack)" in text
+    st.alarms = st.sounding = 0  # cleared; the firmware keeps the last reason text in the status
+    text = "\n".join(render(st, 0.1, 3.0, "udp"))
+    assert "RTK lost" not in text and "alarms -" in text
