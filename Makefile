@@ -64,7 +64,7 @@ fuzz-long: setup
 	TRACKPILOT_FUZZ_N=2000000 $(BIN)/pytest -q -k fuzz tests
 
 clean:
-	rm -rf build $(SIM_OUT) $(SIM_OUT).partial .$(SIM_OUT).tmp-* bench_out .pytest_cache
+	rm -rf build $(SIM_OUT) $(SIM_OUT).partial .$(SIM_OUT).tmp-* bench_out bench_out.partial .bench_out.tmp-* board_sim .pytest_cache
 	@echo "make clean: kept .venv (the Python environment) and everything in git; make distclean removes .venv too"
 
 distclean: clean
