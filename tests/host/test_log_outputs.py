@@ -80,3 +80,23 @@ def test_replay_time_axis_crosses_the_wrap():
 
     rows = [[(1 << 30) - 300], [(1 << 30) - 100], [100], [300], [300 + 30000]]
     assert _time_axis(rows, D()) == pytest.approx([0.2, 0.4, 0.6, 0.8, 30.8])
+
+
+def test_replay_of_a_log_without_control_records_explains_and_fails(tmp_path):
+    import subprocess
+
+    from trackpilot.logger import Logger
+
+    from logseq import track_waypoints as wps
+
+    lg = Logger(str(tmp_path / "log"), fw_version="test")
+    lg.start(1000, reset_cause="power_on", config_hash="0", track_id="t")
+    lg.track(wps(), "t")
+    lg.event("BOOT", "booted", 1000)
+    lg.close()
+    files = sorted(str(p) for p in (tmp_path / "log").rglob("*.tpl"))
+    r = subprocess.run([sys.executable, "-m", "trackpilot_tools.cli", "replay"] + files,
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 1, r.stdout + r.stderr
+    assert "nothing to replay: no control records could be read" in r.stderr
+    assert "Traceback" not in r.stderr
