@@ -164,6 +164,7 @@ def cmd_monitor(args):
     if args.web:
         return cmd_web(args)
     src = _source(args)
+    print("monitor: listening on %s" % src.name, file=sys.stderr, flush=True)  # ready: send now
     tty = sys.stdout.isatty() and not args.plain
     st = None
     last_rx = None
