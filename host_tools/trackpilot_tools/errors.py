@@ -9,4 +9,8 @@ class UserError(Exception):
 def script_error_line(exc):
     """The last non-empty line of a failed MicroPython script's output (its own error message)."""
     lines = [ln.strip() for ln in str(exc).splitlines() if ln.strip()]
-    return lines[-1] if lines else str(exc)
+    line = lines[-1] if lines else str(exc)
+    kind, sep, rest = line.partition(": ")
+    if sep and kind.endswith(("Error", "Exception")) and kind.replace(".", "").isalnum():
+        return rest  # "ValueError: no sample 'x'" -> "no sample 'x'": the text is for a person
+    return line
