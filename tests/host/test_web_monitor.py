@@ -144,3 +144,44 @@ def test_book_counts_lost_datagrams_hides_cleared_alarm_and_marks_ack():
     boat = book.to_json()["boats"][0]
     assert boat["alarms"] == [] and boat["alarm_reason"] == ""
     assert len(boat["history"]["t"]) == 4
+
+
+def test_web_view_from_the_usb_console(tmp_path):
+    """`--web --serial PORT`: `TPS <hex>` lines among other console output, on a pseudo-terminal."""
+    import binascii
+    import os
+    import tty
+
+    from tphmi.samples import sample
+    from tphmi.status import encode_status
+
+    master, slave = os.openpty()
+    tty.setraw(slave)
+    http = _free_port(socket.SOCK_STREAM)
+    mon = subprocess.Popen([sys.executable, "-m", "trackpilot_tools.cli", "monitor", "--web", "--serial",
+                            os.ttyname(slave), "--http-port", str(http), "--duration", "30"],
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=str(ROOT))
+    try:
+        assert "web monitor: http://localhost:%d/" % http in mon.stdout.readline()
+        st = sample("auto_left_far")
+        st.boat_id = 5
+        for seq in range(3):
+            st.seq = seq
+            os.write(master, b"I (123) boot: noise on the console\r\n")
+            os.write(master, b"TPS " + binascii.hexlify(encode_status(st)) + b"\r\n")
+            time.sleep(0.2)
+        t_end = time.monotonic() + 10
+        while time.monotonic() < t_end:
+            state = json.loads(_get("http://127.0.0.1:%d/api/state" % http)[1])
+            if state["datagrams"] >= 3:
+                break
+            time.sleep(0.2)
+        assert state["source"].startswith("serial:") and state["datagrams"] == 3 and state["bad"] == 0
+        (boat,) = state["boats"]
+        assert boat["id"] == 5 and boat["seq"] == 2 and boat["lost"] == 0
+        assert boat["xte_m"] == round(st.xte_m, 2)
+    finally:
+        mon.terminate()
+        mon.wait(timeout=10)
+        os.close(master)
+        os.close(slave)
