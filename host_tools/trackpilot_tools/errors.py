@@ -14,3 +14,9 @@ def script_error_line(exc):
     if sep and kind.endswith(("Error", "Exception")) and kind.replace(".", "").isalnum():
         return rest  # "ValueError: no sample 'x'" -> "no sample 'x'": the text is for a person
     return line
+
+
+def check_port(option, value):
+    """A TCP/UDP port given on the command line: 1..65535, else a UserError naming the option."""
+    if not 0 < value < 65536:
+        raise UserError("%s %d: a port is 1..65535" % (option, value))

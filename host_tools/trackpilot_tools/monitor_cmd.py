@@ -130,6 +130,11 @@ class SerialSource:
 
 
 def _source(args):
+    from trackpilot_tools.errors import check_port
+
+    check_port("--udp", args.udp)
+    if args.web:
+        check_port("--http-port", args.http_port)
     try:
         return SerialSource(args.serial, args.baud) if args.serial else UdpSource(args.udp, args.udp_host)
     except SystemExit as e:  # the sources' own one-line reasons
