@@ -6,7 +6,6 @@ mpremote (and so `trackpilot upload/pull/deploy`) opens the pty like a board's U
 A folder plays the board's flash (`--root`, default board_sim/): tracks/active.csv, log/ (put logs
 there with --logs to try `pull`), appdata/ (the application's own log and state).
 """
-import os
 import shutil
 import signal
 import sys
