@@ -416,14 +416,17 @@ class App:
             await asyncio.sleep_ms(self.grid_ms(200))
 
     def nmea_sentences(self):
-        """GGA, RMC, HDT and XTE for chart plotters (UDP 10110 on the boat)."""
+        """GGA, RMC, HDT, XTE, RMB and APB for chart plotters (UDP 10110 on the boat)."""
         from trackpilot.devices import nmea_out
 
+        core = self.core
         fix = self.fix
         out = nmea_out.gga(fix) + nmea_out.rmc(fix) + nmea_out.hdt(fix)
-        p = self.core.progress
+        p = core.progress
         if p is not None and fix.pos_valid:
-            out += nmea_out.xte(p.xte_m, valid=self.core.mm.mode == M.AUTO)
+            auto = core.mm.mode == M.AUTO
+            out += nmea_out.xte(p.xte_m, valid=auto)
+            out += nmea_out.route(fix, p, valid=auto, heading_cmd_deg=core.heading_cmd_deg if auto else None)
         return out
 
     async def task_telemetry(self):

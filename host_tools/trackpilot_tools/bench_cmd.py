@@ -13,6 +13,7 @@ import json
 import math
 import os
 import statistics
+import sys
 import time
 from collections import deque
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
@@ -619,6 +620,10 @@ def _esp32_equiv(perf):
 
 
 def run(args):
+    """The benchmark into a fresh temporary folder, renamed to --out when it has finished (an
+    interrupted run leaves OUT.partial/ and the older OUT untouched; outdir.py)."""
+    from .outdir import fresh_output
+
     if args.robust is not None or args.robust_one is not None:
         from . import bench_robust
 
@@ -626,13 +631,36 @@ def run(args):
             print("--robust N: N >= 1 boats")
             return 2
         return bench_robust.run(args)
+
+    final = Path(args.out).resolve()
+    try:
+        with fresh_output(final) as tmp:
+            head, wall = _run(args, tmp)
+            _repoint(tmp, final)
+    except KeyboardInterrupt:
+        print("\ninterrupted: the partial output is in %s.partial/ (see PARTIAL.txt there); "
+              "%s/ is unchanged" % (final, final), file=sys.stderr)
+        raise
+    print(head)
+    print("report: %s, %s (wall %.0f s)" % (final / "report.md", final / "report.json", wall))
+    return 0
+
+
+def _repoint(tmp, final):
+    """The report names its files by absolute path: point them at the final folder."""
+    for p in list(tmp.rglob("*.md")) + list(tmp.rglob("*.json")) + list(tmp.rglob("*.csv")):
+        text = p.read_text()
+        if str(tmp) in text:
+            p.write_text(text.replace(str(tmp), str(final)))
+
+
+def _run(args, out):
     from .sim import benchtracks as bt
     from .sim import scenarios
 
     t_start = time.perf_counter()
     quick = args.quick
     seeds = args.seeds or (1 if quick else 3)
-    out = Path(args.out).resolve()
     (out / "tracks").mkdir(parents=True, exist_ok=True)
 
     def log(msg):
@@ -799,6 +827,4 @@ def run(args):
             "date": time.strftime("%Y-%m-%d %H:%M"), "laws": args.laws, "left_out": left_out}
     write_report(out, rows, results, ratio, perf, faults, meta)
     text = (out / "report.md").read_text()
-    print(text.split("\n## Goals")[0])
-    print("report: %s, %s (wall %.0f s)" % (out / "report.md", out / "report.json", wall))
-    return 0
+    return text.split("\n## Goals")[0], wall
