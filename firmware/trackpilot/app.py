@@ -100,8 +100,7 @@ class App:
             ev = core.pop_event()
             if ev is None:
                 break
-            self.log.event(ev[0], ev[1], ev[2])
-            self.w.debug("%s %s" % (ev[0], ev[1]))
+            self.event(ev[0], ev[1], ev[2])
         hmi = getattr(self.w, "hmi", None)
         if hmi is not None:
             for kind, text in hmi.drain_events():
@@ -124,9 +123,9 @@ class App:
         self.core.drain_events()
         self.flush()
 
-    def event(self, kind, text):
-        t = self.clock()
-        self.log.event(kind, text, t)
+    def event(self, kind, text, t_ms=None):
+        """Log an event (t_ms: when the core decided it; default now)."""
+        self.log.event(kind, text, self.clock() if t_ms is None else t_ms)
         self.w.debug("%s %s" % (kind, text))
 
     # ------------------------------------------------------------------ track and state files
@@ -246,7 +245,9 @@ class App:
                 "done" if s.state == ubxcfg.DONE else "FAILED (running with what it sends)",
                 s.log[-1][1] if s.log else ""))
 
-    async def task_gnss(self):
+    def task_gnss(self):
+        """The receiver's configuration starts; then its bytes are pumped to the parser (the
+        coroutine returned is the task: one frame, not one awaiting another)."""
         from trackpilot.devices import ubxcfg
 
         self.gnss_cfg = ubxcfg.ConfigSession(ubxcfg.valset_frames(ubxcfg.rover_items()))
@@ -255,21 +256,13 @@ class App:
         first = self.gnss_cfg.start(self.clock())
         if first:
             self.w.gnss_uart.write(first)
-        reader = asyncio.StreamReader(self.w.gnss_uart)
-        buf = bytearray(256)
-        mv = memoryview(buf)
-        while True:
-            n = await reader.readinto(mv)
-            self.beat("gnss")
-            if not n:
-                continue
-            t = self.clock()
-            if self.profile:
-                self.profiled_feed(mv, n, t)
-                continue
-            epochs = self.gnss.feed(mv, n, t)
-            if epochs:
-                self.control_step(t)
+        return self.pump("gnss", self.w.gnss_uart, 256, self.on_gnss_bytes)
+
+    def on_gnss_bytes(self, mv, n, t):
+        if self.profile:
+            self.profiled_feed(mv, n, t)
+        elif self.gnss.feed(mv, n, t):  # an epoch completed
+            self.control_step(t)
 
     def profiled_feed(self, mv, n, t):
         """The GNSS feed and the control step with CPU time (ticks_us) and bytes allocated
@@ -309,17 +302,24 @@ class App:
             self.prof_us = []
             self.prof_alloc = []
 
-    async def task_seatalk_rx(self):
-        reader = asyncio.StreamReader(self.w.seatalk_uart)
-        buf = bytearray(32)
-        mv = memoryview(buf)
+    async def pump(self, name, uart, size, handle):
+        """Read a stream as bytes come; each chunk goes with its time to handle(mv, n, t_ms).
+        name: the task's heartbeat (None: none)."""
+        reader = asyncio.StreamReader(uart)
+        mv = memoryview(bytearray(size))
         while True:
             n = await reader.readinto(mv)
-            self.beat("seatalk_rx")
-            if not n:
-                continue
-            self.core.on_seatalk_rx(buf, n, self.clock())
-            self.flush()
+            if name is not None:
+                self.beat(name)
+            if n:
+                handle(mv, n, self.clock())
+
+    def task_seatalk_rx(self):
+        return self.pump("seatalk_rx", self.w.seatalk_uart, 32, self.on_seatalk_bytes)
+
+    def on_seatalk_bytes(self, mv, n, t):
+        self.core.on_seatalk_rx(mv, n, t)
+        self.flush()
 
     async def task_seatalk_tx(self):
         """The SeaTalk bus: one byte at a time with its parity, as the core's link says."""
@@ -363,19 +363,9 @@ class App:
 
     async def task_motor(self):
         uart = self.w.motor_uart
-        reader = asyncio.StreamReader(uart) if uart is not None else None
         period = self.cfg["motor"]["keepalive_ms"]
-
-        async def rx():
-            buf = bytearray(64)
-            mv = memoryview(buf)
-            while True:
-                n = await reader.readinto(mv)
-                if n:
-                    self.core.on_motor_rx(mv[:n], self.clock())
-
-        if reader is not None:
-            asyncio.create_task(rx())
+        if uart is not None:
+            asyncio.create_task(self.pump(None, uart, 64, self.core.on_motor_rx))
         while True:
             self.beat("motor")
             frame = self.core.motor_tick(self.clock())  # also runs the link-loss and battery timers
@@ -385,17 +375,10 @@ class App:
             self.flush()
             await asyncio.sleep_ms(self.grid_ms(period))
 
-    async def task_wind(self):
+    def task_wind(self):
         if self.w.wind_uart is None:
-            return
-        reader = asyncio.StreamReader(self.w.wind_uart)
-        buf = bytearray(128)
-        mv = memoryview(buf)
-        while True:
-            n = await reader.readinto(mv)
-            self.beat("wind")
-            if n:
-                self.core.on_wind_rx(mv, n, self.clock())
+            return None  # no sensor: no task
+        return self.pump("wind", self.w.wind_uart, 128, self.core.on_wind_rx)
 
     async def task_inputs(self):
         """E-stop and commands (buttons, remote) to the core; LEDs, buzzer and display."""
@@ -541,7 +524,8 @@ class App:
             self.task_telemetry(),
             self.task_supervisor(),
         ):
-            asyncio.create_task(coro)
+            if coro is not None:
+                asyncio.create_task(coro)
         self.ntrip_task = None
         self.ntrip_restarts = 0
         if getattr(self.w, "wifi", None) is not None:

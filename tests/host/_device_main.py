@@ -89,8 +89,8 @@ def real_app(mode):
     class BenchApp(App):
         """The real App; events also go to events.txt for the test, modes follow mode.txt."""
 
-        def event(self, kind, text):
-            App.event(self, kind, text)
+        def event(self, kind, text, t_ms=None):
+            App.event(self, kind, text, t_ms)
             with open("events.txt", "a") as f:
                 f.write("%s %s\n" % (kind, text))
 

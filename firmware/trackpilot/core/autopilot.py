@@ -12,7 +12,7 @@ Inputs (one entry per kind):
     on_seatalk_rx(buf, n, t_ms)             bytes read from the SeaTalk bus
     seatalk_tx(t_ms) / on_seatalk_tx_done(t_ms, now_ms)  the bus-access step: what to write, then its events
     on_pilot_tick(t_ms)                     the pilot driver's timers (every 100 ms)
-    on_motor_rx(mv, t_ms) / motor_tick(t_ms)  the motor controller's replies / keep-alive frame
+    on_motor_rx(mv, n, t_ms) / motor_tick(t_ms)  the motor controller's replies / keep-alive frame
     on_wind_rx(mv, n, t_ms)                 bytes of the wind sensor
     on_estop(active, t_ms)                  the E-stop input's level
     on_key(name, source, t_ms, corr_age_s)  a person's command (HMI button, remote box, host)
@@ -612,9 +612,9 @@ class Autopilot:
         self.apply_pilot(t)
         self.wake_seatalk = True
 
-    def on_motor_rx(self, mv, t):
+    def on_motor_rx(self, mv, n, t):
         self.now_ms = t
-        self.motor.feed(mv, t)
+        self.motor.feed(mv[:n], t)
 
     def motor_tick(self, t):
         """The motor link's timers (link loss, battery) and keep-alive: the frame to send or None;
