@@ -133,7 +133,7 @@ class App:
         """Read, validate and hand a track file to the core; only in STANDBY. Never raises: a bad
         or too large file, or one that does not fit in memory, is refused with a TRACK event and
         the active track stays. Returns (ok, message)."""
-        from trackpilot.nav import progress, track
+        from trackpilot.nav import track
 
         refusal = self.core.track_refusal()
         if refusal:
@@ -142,9 +142,7 @@ class App:
         try:
             new, new_id = track.load_file(path)
             warnings = track.validate(new, self.cfg["boat"])
-            # the seed baseline uses the plain seed leg-advance rule (BOAT_AND_BENCHMARK.md)
-            rule = progress.RULE_SEED if self.cfg["guidance"]["law"] == "seed" else progress.RULE_ROBUST
-            prog = progress.Progress(new, rule)
+            prog = self.core.progress_for(new)
         except MemoryError:
             new = None
             gc.collect()

@@ -124,6 +124,14 @@ class Autopilot:
             return "track not changed: only in STANDBY"
         return None
 
+    def progress_for(self, new):
+        """The progress along a new track, with the leg-advance rule of the configured law (the
+        seed baseline keeps the plain seed rule, BOAT_AND_BENCHMARK.md)."""
+        from trackpilot.nav import progress
+
+        rule = progress.RULE_SEED if self.seed_baseline else progress.RULE_ROBUST
+        return progress.Progress(new, rule)
+
     def set_track(self, new, new_id, prog, t_ms):
         self.now_ms = t_ms
         self.track = new
