@@ -10,7 +10,8 @@ import sys
 
 def _args(argv):
     opts = {"--config": None, "--track": None, "--data": "/tmp/trackpilot_sim", "--seed": "1",
-            "--reset-cause": "power-on", "--tick-base": None, "--quiet": None, "--profile": None}
+            "--reset-cause": "power-on", "--tick-base": None, "--quiet": None, "--profile": None,
+            "--journal": None}
     i = 1
     while i < len(argv):
         a = argv[i]
@@ -41,7 +42,15 @@ def main():
     wiring = Wiring(link, opts["--data"], seed=int(opts["--seed"]), quiet=bool(opts["--quiet"]))
     from trackpilot.app import App
 
-    app = App(wiring, cfg, problems, reset_cause=opts["--reset-cause"])
+    journal = None
+    if opts["--journal"]:  # every input of the decision core, for tools/replay_core.py
+        from trackpilot.sim.journal import journaling
+
+        journal = open(opts["--journal"], "a")
+        journal.write("B %s\n" % opts["--seed"])
+        app = App(wiring, cfg, problems, reset_cause=opts["--reset-cause"], core_class=journaling(journal))
+    else:
+        app = App(wiring, cfg, problems, reset_cause=opts["--reset-cause"])
     if opts["--profile"]:
         app.profile = True
         app.profile_out = open(opts["--data"] + "/profile.txt", "w")
@@ -49,6 +58,8 @@ def main():
     if opts["--track"]:
         app.load_track(opts["--track"])
     asyncio.run(app.run())
+    if journal is not None:
+        journal.close()
     import gc
 
     gc.collect()

@@ -43,7 +43,7 @@ def _error_text(e):
 
 
 class App:
-    def __init__(self, wiring, cfg, cfg_problems=(), reset_cause="unknown"):
+    def __init__(self, wiring, cfg, cfg_problems=(), reset_cause="unknown", core_class=Autopilot):
         from trackpilot.devices import gnss
         from trackpilot.record import logger
 
@@ -60,7 +60,8 @@ class App:
             statvfs=wiring.statvfs,
         )
         self.cfg_problems = list(cfg_problems)
-        self.core = Autopilot(cfg, self.cfg_problems, self.fix, wiring.rand, rec=self.log.rec)
+        # core_class: the simulator's journaling subclass (sim/journal.py) writes every input down
+        self.core = core_class(cfg, self.cfg_problems, self.fix, wiring.rand, rec=self.log.rec)
         self.reset_cause = reset_cause
         self.alive = {}
         self.stop_event = asyncio.Event()
@@ -119,8 +120,7 @@ class App:
     def drain_events(self):
         """The parts' pending events through the core, then out (tests and the device harness
         poke the mode machine directly)."""
-        self.core.now_ms = self.clock()
-        self.core.drain_events()
+        self.core.settle(self.clock())
         self.flush()
 
     def event(self, kind, text, t_ms=None):

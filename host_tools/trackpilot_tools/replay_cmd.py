@@ -1,5 +1,9 @@
 """`trackpilot replay LOG...`: rerun a log's inputs through the firmware's navigation and guidance.
 
+With `--journal` (a simulator run with `trackpilot sim --journal`): every input of the decision
+core goes through a fresh core, and every control record, core event, SeaTalk bus action and
+motor frame is checked (firmware/tools/replay_core.py).
+
 The firmware's own code runs under MICROPYTHON (firmware/tools/replay.py). With the configuration
 the boat ran, every heading and speed command must come out identical; with `--law` or `--set`
 it shows what another law or other parameters would have commanded for the same inputs.
@@ -12,6 +16,55 @@ from trackpilot_tools.errors import UserError, script_error_line
 from trackpilot_tools.mpy import ROOT, run_script
 
 SCRIPT = ROOT / "firmware" / "tools" / "replay.py"
+CORE_SCRIPT = ROOT / "firmware" / "tools" / "replay_core.py"
+
+
+def run_core_replay(logs, config, journal, seed=None):
+    """The decision core replayed from a simulator journal (firmware/tools/replay_core.py):
+    (exit status, {counter: value}, [mismatch lines])."""
+    args = [str(journal), str(config)] + [str(p) for p in logs]
+    if seed is not None:
+        args += ["--seed", str(seed)]
+    proc = run_script(CORE_SCRIPT, args, timeout=1800, check=False)
+    summary, bad = {}, []
+    for line in proc.stdout.decode().splitlines():
+        if line.startswith("SUMMARY "):
+            for item in line[8:].split():
+                k, _, v = item.partition("=")
+                summary[k] = int(v)
+        elif line.startswith("MISMATCH "):
+            bad.append(line[9:])
+    if not summary:
+        raise RuntimeError("MicroPython script %s failed (%d):\n%s" % (
+            CORE_SCRIPT, proc.returncode, proc.stderr.decode(errors="replace")[-4000:]))
+    return proc.returncode, summary, bad
+
+
+def cmd_core_replay(args, logs):
+    if not args.config:
+        raise UserError("--journal needs --config: the configuration the simulated boat ran "
+                        "(OUT/config.json of `trackpilot sim`)")
+    if not Path(args.journal).is_file():
+        raise UserError("no such journal: %s" % args.journal)
+    _check_sets(args.config, ())
+    try:
+        rc, s, bad = run_core_replay(logs, args.config, args.journal)
+    except RuntimeError as e:
+        raise UserError("replay failed: %s" % script_error_line(e))
+    print("replayed %d calls into the decision core" % s.get("journal_lines", 0))
+    print("control records identical: %d of %d (keystrokes %d, RPM setpoints %d, modes %d)" % (
+        s["records_identical"], s["records"], s["keys_identical"], s["rpm_identical"], s["mode_identical"]))
+    print("core events identical: %d of %d (mode changes %d of %d)" % (
+        s["events_identical"], s["events"], s["mode_changes_identical"], s["mode_changes"]))
+    print("SeaTalk bus actions checked: %d; motor frames checked: %d" % (s["bus_actions"], s["motor_frames"]))
+    for line in bad:
+        print("  mismatch: " + line)
+    if rc != 0:
+        print("trackpilot replay: %d mismatches: the core decided differently" % s.get("mismatches", 0),
+              file=sys.stderr)
+        return 1
+    print("everything the core decided was reproduced")
+    return 0
 
 
 def run_replay(logs, config=None, law=None, sets=(), csv=False):
@@ -97,6 +150,8 @@ def cmd_replay(args):
     for p in logs:
         if not p.is_file():
             raise UserError("no such log: %s" % p)
+    if args.journal:
+        return cmd_core_replay(args, logs)
     _check_sets(args.config, args.set)
     try:
         decoded = decode_files(logs)
@@ -170,4 +225,6 @@ def add_parser(p):
     p.add_argument("--plot", help="write a PNG of logged vs replayed commands")
     p.add_argument("--expect-identical", action="store_true",
                    help="exit 1 unless every command is reproduced exactly")
+    p.add_argument("--journal", help="a simulator journal (trackpilot sim --journal): replay the whole decision "
+                   "core and check every record, event, keystroke and RPM setpoint (exit 1 on a difference)")
     p.set_defaults(func=cmd_replay)

@@ -48,6 +48,9 @@ def add_parser(p):
     p.add_argument("--start-offset-m", type=float, help="start this far to starboard of the first leg")
     p.add_argument("--reengage-s", type=float, default=0.0,
                    help="press ENGAGE again this long after the firmware leaves AUTO (0: never)")
+    p.add_argument("--journal", action="store_true",
+                   help="the firmware writes every input of its decision core to OUT/fw/journal.txt "
+                        "(check with: trackpilot replay OUT/fw/log/*.tpl --config OUT/config.json --journal OUT/fw/journal.txt)")
     p.add_argument("--no-plots", action="store_true")
     p.add_argument("--verbose", action="store_true", help="firmware diagnostics into firmware_stderr.txt")
     p.set_defaults(func=run)
@@ -168,7 +171,7 @@ def _sail(args, out):
                   udp_out=udp_targets(args),
                   fw_config=pm.parse_set(args.fw_set),
                   fw_config_bytes=fw_bytes,
-                  reengage_s=args.reengage_s, quiet=not args.verbose)
+                  reengage_s=args.reengage_s, quiet=not args.verbose, journal=args.journal)
     res = run_.run()
     meta = {"track": str(args.track), "law": args.law, "scenario": args.scenario, "seed": args.seed,
             "faults": args.fault}

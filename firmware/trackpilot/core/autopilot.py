@@ -155,6 +155,12 @@ class Autopilot:
         self.last_state_save_ms = t_ms
 
     # ------------------------------------------------------------------ events of the parts
+    def settle(self, t_ms):
+        """The parts' pending events, handled now (after a part was driven directly: the device
+        harness engages the mode machine itself)."""
+        self.now_ms = t_ms
+        self.drain_events()
+
     def drain_events(self):
         for kind, text in self.mm.drain_events():
             self.event(kind, text)

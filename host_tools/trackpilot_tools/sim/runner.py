@@ -58,8 +58,9 @@ class SimRun:
                  params=None, param_file=None, overrides=None, duration_s=None, realtime=False,
                  realtime_speed=1.0, fw_config=None, reengage_s=0.0, quiet=True,
                  stop_after_finish_s=5.0, max_xte_stop_m=80.0, fw_script=None, udp_out=None,
-                 fw_config_bytes=None):
+                 fw_config_bytes=None, journal=False):
         self.track_path = Path(track_path)
+        self.journal = journal  # the firmware writes every input of its decision core (replay_core)
         self.udp_out = None
         if udp_out:  # (host, status port, NMEA port), as the boat would send them; (ports) = localhost
             import socket
@@ -368,6 +369,8 @@ class SimRun:
                 "--data", self.data_dir, "--seed", str(self.seed), "--reset-cause", reset_cause]
         if self.quiet:
             args.append("--quiet")
+        if self.journal:
+            args += ["--journal", Path(self.data_dir) / "journal.txt"]
         self.proc = popen_script(self.fw_script, args, stderr=self.stderr_f, cwd=str(ROOT))
         self.fw_t0_ms = t_ms
         self.fw_last_ms = t_ms
