@@ -118,8 +118,10 @@ fingerprint() {
     {
         echo "$SDIST_FILE $SDIST_SHA256 $MP_GIT_TAG $CC32"
         printf '%s\n' "${ASYNCIO_PKGS[@]}"
-        sha256sum "${BASH_SOURCE[0]}"
-        if [[ -f "$FONT_H" ]]; then sha256sum "$FONT_H"; else echo "no font"; fi
+        # contents only: sha256sum FILE also prints the path, which differs with how the script
+        # was called (make: relative, the tests: absolute) and made every call rebuild
+        sha256sum <"${BASH_SOURCE[0]}"
+        if [[ -f "$FONT_H" ]]; then sha256sum <"$FONT_H"; else echo "no font"; fi
         (cd "$PORT_DIR" && find . -type f \( -name '*.c' -o -name '*.h' -o -name '*.py' -o -name Makefile \) -print0 \
             | LC_ALL=C sort -z | xargs -0 sha256sum)
     } | sha256sum | cut -d' ' -f1

@@ -96,6 +96,15 @@ def test_single_precision(f32, tmp_path):
     assert out == ["0.33333334 True True", "3.1415928 inf"]
 
 
+def test_build_is_cached_however_called(f32, tmp_path):
+    """A second build does nothing, whether called with a relative path (make) or an absolute
+    one from elsewhere (this file's fixture): the fingerprint must not depend on the path."""
+    for cmd, cwd in ((["bash", "tools/build_micropython_f32.sh"], ROOT), (["bash", str(BUILD_SCRIPT)], tmp_path)):
+        proc = subprocess.run(cmd, cwd=str(cwd), capture_output=True, text=True, timeout=900)
+        assert proc.returncode == 0, proc.stderr[-2000:]
+        assert "up to date" in proc.stderr and "compiling" not in proc.stderr, proc.stderr[-2000:]
+
+
 def test_32_bit_word_and_ticks(f32, tmp_path):
     """The ESP32's int width: small ints end at 2**30 - 1 (past that a long int on the heap), and
     the ticks wrap at 2**30."""
