@@ -21,11 +21,12 @@ $(STAMP): requirements.txt pyproject.toml
 	$(BIN)/pip install --disable-pip-version-check -q --no-deps -e .
 	touch $(STAMP)
 
-# The single-precision interpreter (cached; rebuilt only when its sources change).
+# The 32-bit single-precision interpreter, as the ESP32 (cached; rebuilt only when its sources change).
 f32: setup
 	bash tools/build_micropython_f32.sh
 
-# Every test under the chosen interpreter, then the unix-port tests again on a single-precision build.
+# Every test under the chosen interpreter, then every test that runs firmware (marker mpy: tests/mpy,
+# the simulator and the other firmware-running host tests) again on the 32-bit single-precision build.
 test: setup f32
 	$(BIN)/pytest -q tests
 	MICROPYTHON=$(MICROPYTHON_F32) $(BIN)/pytest -q -m mpy tests

@@ -1,6 +1,7 @@
 """Entry point of the firmware in simulation (docs/SIM_PROTOCOL.md).
 
     micropython firmware/sim_main.py --config CFG.json --track TRACK.csv --data DIR [--seed N]
+                                     [--profile] [--heap-stages]
 
 Runs the same App as main.py on the ESP32; only the wiring and the clock/event-loop adapter differ.
 Diagnostics go to stderr; stdout carries the protocol.
@@ -10,11 +11,12 @@ import sys
 
 def _args(argv):
     opts = {"--config": None, "--track": None, "--data": "/tmp/trackpilot_sim", "--seed": "1",
-            "--reset-cause": "power-on", "--tick-base": None, "--quiet": None, "--profile": None}
+            "--reset-cause": "power-on", "--tick-base": None, "--quiet": None, "--profile": None,
+            "--heap-stages": None}
     i = 1
     while i < len(argv):
         a = argv[i]
-        if a in ("--quiet", "--profile"):
+        if a in ("--quiet", "--profile", "--heap-stages"):
             opts[a] = "1"
             i += 1
             continue
@@ -25,30 +27,92 @@ def _args(argv):
     return opts
 
 
+def largest_free_block():
+    """The largest bytearray that can be allocated now (bytes, to 16 B): the biggest contiguous
+    free run of the heap, found by trying (MicroPython has no call that reports it)."""
+    import gc
+
+    gc.collect()
+    lo, hi = 0, gc.mem_free()
+    while hi - lo > 16:
+        mid = (lo + hi) // 2
+        try:
+            b = bytearray(mid)
+            b = None
+            lo = mid
+        except MemoryError:
+            hi = mid
+    return lo
+
+
+def heap_stage(name):
+    """One line of the start-up heap table on stderr (--heap-stages): live heap after a
+    collection, free heap and the largest free block."""
+    import gc
+
+    gc.collect()
+    live = gc.mem_alloc()
+    free = gc.mem_free()
+    sys.stderr.write("sim_main: heap stage %-16s live %6d B, free %6d B, largest free block %6d B\n" % (
+        name, live, free, largest_free_block()))
+
+
+async def _heap_watch(link, app):
+    """--heap-stages: the heap once the tasks run, then in steady state (every 10 min)."""
+    import asyncio
+
+    await asyncio.sleep_ms(0)
+    heap_stage("tasks started")
+    while True:
+        await asyncio.sleep_ms(600000)
+        heap_stage("t=%d s" % (link.t_ms // 1000))
+
+
 def main():
+    opts = _args(sys.argv)
+    stages = opts["--heap-stages"]
+    if stages:
+        heap_stage("interpreter")
     from trackpilot import config
     from trackpilot.simio import SimLink
     from trackpilot.wiring_sim import Wiring
 
-    opts = _args(sys.argv)
     if opts["--config"]:
         cfg, problems = config.load(opts["--config"])
     else:
         cfg, problems = config.defaults(), ["no --config: built-in defaults"]
+    if stages:
+        heap_stage("config")
     base = int(opts["--tick-base"]) if opts["--tick-base"] else (1 << 30) - 60000
     link = SimLink(sys.stdin.buffer, sys.stdout.buffer, tick_base=base)
     asyncio = link.install()
     wiring = Wiring(link, opts["--data"], seed=int(opts["--seed"]), quiet=bool(opts["--quiet"]))
+    if stages:
+        heap_stage("asyncio, wiring")
     from trackpilot.app import App
 
+    if stages:
+        heap_stage("app imported")
     app = App(wiring, cfg, problems, reset_cause=opts["--reset-cause"])
+    if stages:
+        heap_stage("App()")
     if opts["--profile"]:
         app.profile = True
         app.profile_out = open(opts["--data"] + "/profile.txt", "w")
     link.stop_callback = app.stop_event.set
     if opts["--track"]:
         app.load_track(opts["--track"])
-    asyncio.run(app.run())
+        if stages:
+            heap_stage("track loaded")
+    if stages:
+        async def _run():
+            asyncio.create_task(_heap_watch(link, app))
+            await app.run()
+
+        asyncio.run(_run())
+        heap_stage("stopped")
+    else:
+        asyncio.run(app.run())
     import gc
 
     gc.collect()
