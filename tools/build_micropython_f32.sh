@@ -250,7 +250,7 @@ rm -rf "$OUT"/lib.tmp/adafruit_circuitpython_*
 CORE_PY="$OUT/lib.tmp/asyncio/core.py"
 grep -q 'print_exception(None, exc, exc.__traceback__)' "$CORE_PY" \
     || die "asyncio/core.py no longer has the line this script adapts (default_exception_handler)"
-sed -i 's/print_exception(None, exc, exc.__traceback__)/sys.print_exception(exc)  # trackpilot: MicroPython/' "$CORE_PY"
+sed -i 's/print_exception(None, exc, exc.__traceback__)/sys.print_exception(exc, sys.stderr)  # trackpilot: MicroPython/' "$CORE_PY"
 mv "$OUT/lib.tmp" "$LIB_DIR"
 
 # 2. Extract (once per sdist).
