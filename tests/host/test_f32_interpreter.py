@@ -137,8 +137,10 @@ p.register(u, select.POLLIN)
 print(p.poll(0))
 srv = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
 srv.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-srv.bind(socket.getaddrinfo("127.0.0.1", 47311)[0][-1])
+srv.bind(socket.getaddrinfo("127.0.0.1", 0)[0][-1])
 srv.listen(1)
+a = srv.getsockname()  # raw sockaddr_in: the port is bytes 2-3, big-endian
+port = (a[2] << 8) | a[3]
 
 async def tick(out):
     for i in range(3):
@@ -148,7 +150,7 @@ async def tick(out):
 async def main():
     out = []
     t = asyncio.create_task(tick(out))
-    reader, writer = await asyncio.open_connection("127.0.0.1", 47311)
+    reader, writer = await asyncio.open_connection("127.0.0.1", port)
     writer.write(b"hello")
     await writer.drain()
     await t
