@@ -43,7 +43,18 @@ def _error_text(e):
 
 class App:
     def __init__(self, wiring, cfg, cfg_problems=(), reset_cause="unknown"):
-        from trackpilot import gnss, guidance, logger, motor, mwv, seatalk, st2000, stlink
+        from trackpilot import logger
+
+        # the largest buffers first (the log's 4 KB write buffer and 2 KB header frame), while the
+        # heap is still one block; the other modules are imported after them
+        self.log = logger.Logger(
+            wiring.log_dir,
+            max_file_bytes=cfg["log"]["max_file_bytes"],
+            min_free_bytes=cfg["log"]["min_free_bytes"],
+            flush_ms=cfg["log"]["flush_ms"],
+            statvfs=wiring.statvfs,
+        )
+        from trackpilot import gnss, guidance, motor, mwv, seatalk, st2000, stlink
 
         self.w = wiring
         self.cfg = cfg
@@ -81,13 +92,6 @@ class App:
         self.track = None
         self.progress = None
         self.track_id = ""
-        self.log = logger.Logger(
-            wiring.log_dir,
-            max_file_bytes=cfg["log"]["max_file_bytes"],
-            min_free_bytes=cfg["log"]["min_free_bytes"],
-            flush_ms=cfg["log"]["flush_ms"],
-            statvfs=wiring.statvfs,
-        )
         self.reset_cause = reset_cause
         self.cfg_problems = list(cfg_problems)
         from trackpilot.config import rejected
@@ -681,6 +685,8 @@ class App:
         --profile, the benchmark); the normal path above has no measuring in it."""
         from time import ticks_diff as us_diff
 
+        if gc.mem_free() < 32768:
+            gc.collect()  # outside the window: with the collector off, a full heap cannot be reclaimed
         gc.disable()
         try:
             a0 = gc.mem_alloc()
