@@ -35,11 +35,12 @@ $(STAMP): requirements.txt pyproject.toml
 	echo '$(PY_ID)' > $(VENV)/.python-id
 	touch $(STAMP)
 
-# The single-precision interpreter (cached; rebuilt only when its sources change).
+# The 32-bit single-precision interpreter, as the ESP32 (cached; rebuilt only when its sources change).
 f32: setup
 	bash tools/build_micropython_f32.sh
 
-# Every test under the chosen interpreter, then the unix-port tests again on a single-precision build.
+# Every test under the chosen interpreter, then every test that runs firmware (marker mpy: tests/mpy,
+# the simulator and the other firmware-running host tests) again on the 32-bit single-precision build.
 test: setup f32
 	$(BIN)/pytest $(PYTEST_OPTS) tests
 	MICROPYTHON=$(MICROPYTHON_F32) $(BIN)/pytest $(PYTEST_OPTS) -m mpy tests

@@ -44,14 +44,10 @@ def _error_text(e):
 
 class App:
     def __init__(self, wiring, cfg, cfg_problems=(), reset_cause="unknown", core_class=Autopilot):
-        from trackpilot.devices import gnss
         from trackpilot.record import logger
 
-        self.w = wiring
-        self.cfg = cfg
-        self.clock = wiring.ticks_ms
-        self.fix = Fix()
-        self.gnss = gnss.GnssParser(self.fix, heading_offset_deg=cfg["boat"]["heading_offset_deg"])
+        # the largest buffers first (the log's 4 KB write buffer and 2 KB header frame), while the
+        # heap is still one block; the other modules are imported after them (here and in the core)
         self.log = logger.Logger(
             wiring.log_dir,
             max_file_bytes=cfg["log"]["max_file_bytes"],
@@ -59,6 +55,13 @@ class App:
             flush_ms=cfg["log"]["flush_ms"],
             statvfs=wiring.statvfs,
         )
+        from trackpilot.devices import gnss
+
+        self.w = wiring
+        self.cfg = cfg
+        self.clock = wiring.ticks_ms
+        self.fix = Fix()
+        self.gnss = gnss.GnssParser(self.fix, heading_offset_deg=cfg["boat"]["heading_offset_deg"])
         self.cfg_problems = list(cfg_problems)
         # core_class: the simulator's journaling subclass (sim/journal.py) writes every input down
         self.core = core_class(cfg, self.cfg_problems, self.fix, wiring.rand, rec=self.log.rec)
@@ -269,6 +272,8 @@ class App:
         --profile, the benchmark); the normal path above has no measuring in it."""
         from time import ticks_diff as us_diff
 
+        if gc.mem_free() < 32768:
+            gc.collect()  # outside the window: with the collector off, a full heap cannot be reclaimed
         gc.disable()
         try:
             a0 = gc.mem_alloc()

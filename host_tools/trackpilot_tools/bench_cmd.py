@@ -543,6 +543,7 @@ def perf_section(perf):
              _f((perf.get("sim_speed_alone") or {}).get("sim_s"), "%.0f"), _f((perf.get("sim_speed_alone") or {}).get("wall_s"), "%.1f"),
              _f(mi.get("sim_speed_x"), "%.0f"), _f(mi.get("wall_s"), "%.1f"),
              _f(mi.get("steps"), "%d"), _f(perf.get("accuracy_sim_speed_mean"), "%.0f"))]
+    L += bench_perf.frozen_heap_lines(perf.get("frozen_heap"))
     ps = perf.get("parser") or {}
     L.append("- **GNSS parser throughput** on one recorded stream (the simulator's F9P, %s epochs of UBX "
              "NAV-RELPOSNED/HPPOSLLH/PVT + NMEA GGA/RMC, %s B; best of 3): trackpilot.devices.gnss under the unix port "
@@ -709,6 +710,13 @@ def _run(args, out):
                       {"track": mission, "out": str(pdir / "mission"), "wrapper": wrap_prof, "heap": None,
                        "timeout": 900}))
         queue.append(("misc", _misc_perf, (str(pdir), str(lib), mission, str(stream), not quick)))
+        if quick:
+            perf["frozen_heap"] = {"skipped": "not with --quick (it builds the frozen interpreter)"}
+        else:
+            queue.append(("frozen", bench_perf.frozen_heap,
+                          {"out": str(pdir / "frozen"), "heaps": [110 * 1024, 256 * 1024], "timeout": 900,
+                           "tracks": [("tracks/middelburg_loop.csv", str(bench_perf.ROOT / "tracks" / "middelburg_loop.csv")),
+                                      ("mission", mission)]}))
     for j in fjobs:
         queue.append(("fault", bench_faults.run_fault, j))
     for j in acc:
@@ -777,6 +785,8 @@ def _run(args, out):
                     log("heap %d B: %s" % (job, "ok" if res.get("ok") else "fails (%s)" % res.get("stop")))
                 elif tag == "misc":
                     perf.update(res)
+                elif tag == "frozen":
+                    perf["frozen_heap"] = res
     if not args.no_perf:  # simulation speed of one run alone (nothing else running): the example track
         from .mpy import ROOT
         from .sim.runner import SimRun

@@ -105,7 +105,9 @@ CASES = {
         "expected": "misspelled key: config alarm at boot, every ENGAGE refused until a person's ACK, then "
                     "AUTO on the defaults"},
     "alarm_no_recovery": {
-        "faults": ["gnss_dropout@%g:60" % (T_FAULT - 20), "pilot_silent@%g:6" % T_FAULT], "config": None,
+        # a 10 s GNSS hold (the default is 40 s of dead reckoning) so the pilot falls silent in ALARM
+        "faults": ["gnss_dropout@%g:60" % (T_FAULT - 20), "pilot_silent@%g:6" % T_FAULT],
+        "config": b'{"modes": {"gnss_hold_s": 10}}',
         "track": None, "scenario": "current", "end_s": T_FAULT + 40,
         "expected": "in ALARM (GNSS gone beyond the hold time) a silent pilot is not recovered: no keys, "
                     "the pilot stays in Auto on its course"},

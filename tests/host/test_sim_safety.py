@@ -34,8 +34,11 @@ def pilot_log(res, t_from=0.0):
 
 def test_alarm_driver_never_recovers_by_itself(tmp_path):
     """14.1: in ALARM (GNSS gone beyond the hold time) a silent pilot used to get Standby (tiller
-    free for 4.5 s) and Auto from the driver on its own. Nothing may be sent in ALARM."""
-    r, res, d = sail(tmp_path / "a", faults=["gnss_dropout@20:60", "pilot_silent@40:6"], duration_s=90)
+    free for 4.5 s) and Auto from the driver on its own. Nothing may be sent in ALARM.
+    The issue's run had a 10 s GNSS hold (since then 40 s, dead reckoning): pinned here so that the
+    pilot falls silent inside ALARM."""
+    r, res, d = sail(tmp_path / "a", faults=["gnss_dropout@20:60", "pilot_silent@40:6"], duration_s=90,
+                     fw_config={"modes": {"gnss_hold_s": 10}})
     ms = modes(res)
     alarm_t = [t for t, v in ms if v == "ALARM"]
     assert alarm_t and alarm_t[0] < 40, ms

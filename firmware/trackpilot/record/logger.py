@@ -234,7 +234,7 @@ class Logger:
         for k in h:
             if k not in ("config_hash", "track_id", "reset_cause", "utc"):
                 extra[k] = h[k]
-        head = self.enc.header(
+        head = self.enc.header_into(
             fw_version=self.fw_version, config_hash=h.get("config_hash", ""),
             track_id=h.get("track_id", ""), reset_cause=h.get("reset_cause", ""),
             t0_ms=self._now_ms & 0x3FFFFFFF, utc=h.get("utc", ""), session=self.session,
