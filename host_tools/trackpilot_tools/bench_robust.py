@@ -23,7 +23,8 @@ TURN_CASES = ("zigzag_60", "uturn_20m", "lawnmower")
 
 
 def _straight_len(v):
-    return 60.0 + 40.0 * v
+    """200 m as `trackpilot bench`'s straights, at least 100 s of sailing (settling, then a measure)."""
+    return max(200.0, 100.0 * v)
 
 
 # case name -> (track maker name, args, sim overrides, faults, kind)
@@ -208,6 +209,10 @@ def run_job(job):
         res = r.run()
         dog.cancel()
         m = analyse(res, kind)
+        if kind == "line":  # can this boat's pilot hold a course by itself at this speed?
+            v = case_table()[case][1][0]
+            m["pilot_alone_pp_deg"] = pilot_alone(p, v, step_deg=10.0)
+            m["pilot_alone_40_pp_deg"] = pilot_alone(p, v, step_deg=40.0)
         if dog.fired:
             m["failure"], m["why"] = True, "firmware stopped answering (killed: %s)" % dog.fired
         return {"job": job, "params": flat, "metrics": m}
@@ -217,22 +222,28 @@ def run_job(job):
 
 
 # ---------------------------------------------------------------------- the engine: Dask distributed
+def dask_client(scheduler=None, workers=2):
+    """(client, cluster or None): a running scheduler's address, or a LocalCluster of `workers`
+    single-threaded worker processes (each run is a firmware process: one per core)."""
+    import logging
+
+    from dask.distributed import Client, LocalCluster
+
+    if scheduler:
+        return Client(scheduler, timeout="30s"), None
+    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+                           silence_logs=logging.ERROR)
+    return Client(cluster), cluster
+
+
 def run_on_dask(jobs, fn, scheduler=None, workers=2, progress=None, retries=2):
     """Submit every job; yield (job, result) as they finish. A task that raises is retried
     `retries` times; a task whose worker dies is rescheduled by the scheduler (up to its
     allowed-failures). scheduler: "tcp://HOST:8786" or None for a LocalCluster of `workers`
     single-threaded worker processes."""
-    import logging
+    from dask.distributed import as_completed
 
-    from dask.distributed import Client, LocalCluster, as_completed
-
-    cluster = None
-    if scheduler:
-        client = Client(scheduler, timeout="30s")
-    else:
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
-                               silence_logs=logging.ERROR)
-        client = Client(cluster)
+    client, cluster = dask_client(scheduler, workers)
     try:
         byfut = {}
         for j in jobs:
@@ -294,6 +305,7 @@ def summarise(results):
     out = {}
     for (case, law), rs in sorted(table.items()):
         d = {"runs": len(rs), "failures": sum(1 for r in rs if r["metrics"].get("failure")),
+             "pilot_cannot_hold": sum(1 for r in rs if not pilot_holds(r)),
              "oscillating": sum(1 for r in rs if (r["metrics"].get("osc") or {}).get("oscillates"))}
         for metric, w in (("settled_rms_m", "max"), ("settled_max_m", "max"), ("max_m", "max"),
                           ("within_1p5_pct", "min"), ("keys_per_km", "max")):
@@ -302,9 +314,24 @@ def summarise(results):
     return out
 
 
-def goals(results, law="los"):
-    """The issue's goals for one law: [(goal, figure, met)]."""
-    res = [r for r in results if r["job"]["law"] == law and r["job"]["boat"] != 0]
+PILOT_HOLDS_PP_DEG = 5.0
+
+
+def pilot_holds(r):
+    """The boat's pilot alone holds a fixed course at the case's speed: after a 10 deg and after a
+    40 deg course step its heading swings less than PILOT_HOLDS_PP_DEG peak to peak over the last
+    60 s (pilot_alone). A pilot that limit-cycles by itself needs its own gain turned down; no
+    keystroke law can steer it straight."""
+    m = r["metrics"]
+    a, b = m.get("pilot_alone_pp_deg"), m.get("pilot_alone_40_pp_deg")
+    return a is None or (a < PILOT_HOLDS_PP_DEG and b < PILOT_HOLDS_PP_DEG)
+
+
+def goals(results, law="los", only_holding=False):
+    """The issue's goals for one law: [(goal, figure, met)]. only_holding: over the boats whose
+    pilot holds a course by itself (pilot_holds)."""
+    res = [r for r in results if r["job"]["law"] == law and r["job"]["boat"] != 0
+           and (not only_holding or pilot_holds(r))]
     nom = [r for r in results if r["job"]["law"] == law and r["job"]["boat"] == 0]
     out = []
     st = [r for r in res if goal_straight(r)]
@@ -473,6 +500,8 @@ def run(args):
     results.sort(key=lambda r: (r["job"]["case"], r["job"]["law"], r["job"]["boat"]))
     summ = summarise(results)
     goal = {law: goals(results, law) for law in laws}
+    for law in laws:
+        goal[law + ", boats whose pilot holds a course alone"] = goals(results, law, only_holding=True)
     rank = plots(results, out)
     cores = os.cpu_count() or 1
     meta = {"boats": args.robust, "fw_set": args.fw_set or [], "seed0": args.robust_seed, "cases": cases, "laws": laws, "quick": quick,
@@ -505,14 +534,14 @@ def report_md(meta, summ, goal, rank):
         L += ["| %s | %s | %s |" % (a, b, "met" if ok else "**not met**") for a, b, ok in g]
         L.append("")
     L += ["## Distributions", "",
-          "| case / law | runs | failed | oscillating | settled RMS median / p90 / worst | max |XTE| median / p90 / "
+          "| case / law | runs | failed | oscillating | pilot alone cannot hold | settled RMS median / p90 / worst | max |XTE| median / p90 / "
           "worst | within 1.5 m % median / p10 / worst | keys/km median / p90 | worst RMS: rerun |",
-          "|---|---|---|---|---|---|---|---|---|"]
+          "|---|---|---|---|---|---|---|---|---|---|"]
     for k, d in summ.items():
         s, m, w, kk = d["settled_rms_m"], d["max_m"], d["within_1p5_pct"], d["keys_per_km"]
         tri = lambda x, f="%.3f": "-" if not x else "%s / %s / %s" % (f % x["median"], f % x["p90"], f % x["worst"])  # noqa: E731
-        L.append("| %s | %d | %d | %d | %s | %s | %s | %s | %s |" % (
-            k, d["runs"], d["failures"], d["oscillating"], tri(s), tri(m), tri(w, "%.1f"),
+        L.append("| %s | %d | %d | %d | %d | %s | %s | %s | %s | %s |" % (
+            k, d["runs"], d["failures"], d["oscillating"], d["pilot_cannot_hold"], tri(s), tri(m), tri(w, "%.1f"),
             "-" if not kk else "%.0f / %.0f" % (kk["median"], kk["p90"]),
             "-" if not s else "`%s`" % s["rerun"]))
     L.append("")
@@ -521,3 +550,39 @@ def report_md(meta, summ, goal, rank):
               ", ".join("%s %+.2f" % (n, r) for n, r in rank[:8]), "",
               "![hist](robust_straight_rms_hist.png) ![params](robust_straight_rms_vs_params.png)", ""]
     return "\n".join(L) + "\n"
+
+
+# ---------------------------------------------------------------------- the pilot alone
+class _NoBus:
+    retry_limit = 0
+
+    def add_receiver(self, *a):
+        pass
+
+
+def pilot_alone(p, speed_mps, seconds=150.0, step_deg=10.0):
+    """The drawn ST2000+ holding a fixed course on the drawn boat, without the firmware: after a
+    step_deg course change at t = 0, the heading's peak-to-peak swing over the last 60 s (deg).
+    A pilot that cannot hold a course by itself (a swing of several degrees) limits any outer law:
+    the report counts such boats."""
+    from .sim import stcodec
+    from .sim.boat import Boat, Environment
+    from .sim.randproc import component_rng
+    from .sim.st2000_sim import ST2000Sim
+
+    env = Environment(p["water"], p["wind"], component_rng(1, "environment"))
+    scale = p["boat"].get("speed_map_scale", 1.0)
+    rpm = speed_mps / scale * 400.0
+    boat = Boat(p["boat"], env, 0.0, 0.0, 0.0, u_mps=speed_mps / 1.0, rpm=rpm)
+    pil = ST2000Sim(p["pilot"], component_rng(1, "pilot"), None, _NoBus())
+    pil.mode = stcodec.MODE_AUTO
+    pil.course_deg = step_deg + p["pilot"]["compass_offset_deg"]
+    dt = 0.05
+    hs = []
+    n = int(seconds / dt)
+    for k in range(n):
+        rud = pil.control_step(dt, boat.heading_deg())
+        boat.step(dt, rud, rpm)
+        if k * dt >= seconds - 60.0:
+            hs.append(((boat.psi_deg + 180.0) % 360.0) - 180.0)
+    return round(max(hs) - min(hs), 2)
