@@ -70,8 +70,12 @@ def sim_params(case, boat_seed):
     return p, flat
 
 
+NOMINAL_SEEDS = 3  # the nominal boat's noise seeds (its reference figures are their mean)
+
+
 def job_name(job):
-    return "%s_%s_b%d" % (job["case"], job["law"], job["boat"])
+    extra = "_s%d" % job["seed"] if job.get("seed", 1) != 1 else ""
+    return "%s_%s_b%d%s" % (job["case"], job["law"], job["boat"], extra)
 
 
 def rerun_command(job):
@@ -203,7 +207,7 @@ def run_job(job):
         base.mkdir(parents=True, exist_ok=True)
         track = _write_track(case, str(base / "track.csv"))
         p, flat = sim_params(case, job["boat"])
-        r = SimRun(track, base / "run", seed=job["boat"] if job["boat"] else 1, law=job["law"], params=p,
+        r = SimRun(track, base / "run", seed=job["boat"] if job["boat"] else job.get("seed", 1), law=job["law"], params=p,
                    faults=faults, fw_config=job.get("fw"))
         dog = bench_perf.watchdog(r, job.get("timeout", 300.0))
         res = r.run()
@@ -367,6 +371,24 @@ def goals(results, law="los", only_holding=False):
     return out
 
 
+def nominal_table(results):
+    """The nominal boat per case and law: mean over its noise seeds of the settled RMS, max |xte|,
+    within 1.5 m and keystrokes per km."""
+    t = {}
+    for r in results:
+        if r["job"]["boat"] == 0:
+            t.setdefault("%s/%s" % (r["job"]["case"], r["job"]["law"]), []).append(r["metrics"])
+    out = {}
+    for k, ms in sorted(t.items()):
+        row = {"seeds": len(ms)}
+        for key in ("settled_rms_m", "settled_max_m", "max_m", "within_1p5_pct", "keys_per_km"):
+            v = [m[key] for m in ms if m.get(key) is not None]
+            row[key] = round(statistics.mean(v), 3) if v else None
+        row["oscillating"] = sum(1 for m in ms if (m.get("osc") or {}).get("oscillates"))
+        out[k] = row
+    return out
+
+
 def goal_straight_case(case):
     return case.startswith("straight_") and float(case.split("_")[1]) in GOAL_SPEEDS
 
@@ -435,7 +457,8 @@ def make_jobs(n, cases, laws, seed0=1, quick=False, timeout=300.0, fw=None):
     jobs = []
     for law in laws:
         for case in cases:
-            jobs.append({"case": case, "law": law, "boat": 0, "timeout": timeout, "fw": fw})
+            for seed in range(1, NOMINAL_SEEDS + 1):
+                jobs.append({"case": case, "law": law, "boat": 0, "seed": seed, "timeout": timeout, "fw": fw})
         for b in range(seed0, seed0 + n):
             bc = ["straight_%.1f" % GOAL_SPEEDS[b % 3]] if quick else cases
             for case in bc:
@@ -503,6 +526,7 @@ def run(args):
     for law in laws:
         goal[law + ", boats whose pilot holds a course alone"] = goals(results, law, only_holding=True)
     rank = plots(results, out)
+    summ["nominal"] = nominal_table(results)
     cores = os.cpu_count() or 1
     meta = {"boats": args.robust, "fw_set": args.fw_set or [], "seed0": args.robust_seed, "cases": cases, "laws": laws, "quick": quick,
             "runs": len(results), "wall_s": round(wall, 1), "engine": where, "cores": cores,
@@ -538,12 +562,22 @@ def report_md(meta, summ, goal, rank):
           "worst | within 1.5 m % median / p10 / worst | keys/km median / p90 | worst RMS: rerun |",
           "|---|---|---|---|---|---|---|---|---|---|"]
     for k, d in summ.items():
+        if k == "nominal":
+            continue
         s, m, w, kk = d["settled_rms_m"], d["max_m"], d["within_1p5_pct"], d["keys_per_km"]
         tri = lambda x, f="%.3f": "-" if not x else "%s / %s / %s" % (f % x["median"], f % x["p90"], f % x["worst"])  # noqa: E731
         L.append("| %s | %d | %d | %d | %d | %s | %s | %s | %s | %s |" % (
             k, d["runs"], d["failures"], d["oscillating"], d["pilot_cannot_hold"], tri(s), tri(m), tri(w, "%.1f"),
             "-" if not kk else "%.0f / %.0f" % (kk["median"], kk["p90"]),
             "-" if not s else "`%s`" % s["rerun"]))
+    L.append("")
+    L += ["## The nominal boat (no spread; mean over %d noise seeds)" % NOMINAL_SEEDS, "",
+          "| case / law | settled RMS | settled max | max |XTE| | within 1.5 m % | keys/km | oscillating |",
+          "|---|---|---|---|---|---|---|"]
+    for k, r in summ.get("nominal", {}).items():
+        L.append("| %s | %s | %s | %s | %s | %s | %d |" % (k, _f(r["settled_rms_m"]), _f(r["settled_max_m"]), _f(r["max_m"]),
+                                                        _f(r["within_1p5_pct"], "%.1f"), _f(r["keys_per_km"], "%.0f"),
+                                                        r["oscillating"]))
     L.append("")
     if rank:
         L += ["## What matters most (straights, Spearman rank correlation with the RMS)", "",
