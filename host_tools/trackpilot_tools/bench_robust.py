@@ -79,8 +79,12 @@ def job_name(job):
 
 
 def rerun_command(job):
-    return "trackpilot bench --robust-one %d --case %s --law %s --out robust_%s" % (
-        job["boat"], job["case"], job["law"], job_name(job))
+    sets = []
+    for sec, body in sorted((job.get("fw") or {}).items()):
+        for k, v in sorted(body.items()):
+            sets.append(" --fw-set %s.%s=%s" % (sec, k, json.dumps(v)))
+    return "trackpilot bench --robust-one %d --case %s --laws %s%s --out robust_%s" % (
+        job["boat"], job["case"], job["law"], "".join(sets), job_name(job))
 
 
 # ---------------------------------------------------------------------- metrics
@@ -343,7 +347,7 @@ def goals(results, law="los", only_holding=False):
     d = distribution(st, "settled_rms_m")
     if d:
         fails = sum(1 for r in st if r["metrics"].get("failure"))
-        out.append(("straights 1-3 m/s, current <= 0.3 m/s: median RMS |XTE| after settling <= 0.15 m",
+        out.append(("straights 1-3 m/s, current <= 0.3 m/s: median RMS XTE after settling <= 0.15 m",
                     "%.3f m over %d runs (%d boats), %d failed" % (d["median"], d["n"], boats, fails),
                     d["median"] <= 0.15 and not fails))
         out.append(("... p90 <= 0.25 m", "%.3f m" % d["p90"], d["p90"] <= 0.25))
@@ -429,6 +433,7 @@ def plots(results, out):
     ax.axvline(0.15, color="k", ls="--", lw=0.8)
     ax.set_xlabel("RMS |XTE| after settling, straights 1-3 m/s (m)")
     ax.set_ylabel("runs")
+    ax.set_title("%d runs" % len(st), fontsize=9)
     ax.legend()
     fig.tight_layout()
     fig.savefig(out / "robust_straight_rms_hist.png", dpi=90)
@@ -558,7 +563,7 @@ def report_md(meta, summ, goal, rank):
         L += ["| %s | %s | %s |" % (a, b, "met" if ok else "**not met**") for a, b, ok in g]
         L.append("")
     L += ["## Distributions", "",
-          "| case / law | runs | failed | oscillating | pilot alone cannot hold | settled RMS median / p90 / worst | max |XTE| median / p90 / "
+          "| case / law | runs | failed | oscillating | pilot alone cannot hold | settled RMS median / p90 / worst | max abs XTE median / p90 / "
           "worst | within 1.5 m % median / p10 / worst | keys/km median / p90 | worst RMS: rerun |",
           "|---|---|---|---|---|---|---|---|---|---|"]
     for k, d in summ.items():
@@ -572,7 +577,7 @@ def report_md(meta, summ, goal, rank):
             "-" if not s else "`%s`" % s["rerun"]))
     L.append("")
     L += ["## The nominal boat (no spread; mean over %d noise seeds)" % NOMINAL_SEEDS, "",
-          "| case / law | settled RMS | settled max | max |XTE| | within 1.5 m % | keys/km | oscillating |",
+          "| case / law | settled RMS | settled max | max abs XTE | within 1.5 m % | keys/km | oscillating |",
           "|---|---|---|---|---|---|---|"]
     for k, r in summ.get("nominal", {}).items():
         L.append("| %s | %s | %s | %s | %s | %s | %d |" % (k, _f(r["settled_rms_m"]), _f(r["settled_max_m"]), _f(r["max_m"]),
