@@ -151,9 +151,6 @@ class LosLaw:
         "lookahead_min_m": (6.0, "m", 1.0, 50.0, "lookahead clamp, low (gain x T' L: slow boat)"),
         "lookahead_max_m": (30.0, "m", 2.0, 200.0, "lookahead clamp, high"),
         "xte_lead_s": (3.0, "s", 0.0, 20.0, "damping: steer on the xte predicted this far ahead (0 = off)"),
-        "yaw_damp_s": (0.0, "s", 0.0, 10.0, "damping: the command leads against the yaw rate by this much (0 = off)"),
-        "yaw_rate_tc_s": (1.0, "s", 0.1, 10.0, "low-pass time constant of the GNSS yaw rate (wave yaw out)"),
-        "corr_rate_dps": (0.0, "deg/s", 0.0, 60.0, "slew limit of the correction (command - path course): keeps the pilot linear (0 = off)"),
         "intercept_max_deg": (90.0, "deg", 5.0, 90.0, "clamp of the approach angle to the path (keeps the pilot out of saturation)"),
         "preview_s": (3.5, "s", 0.0, 10.0, "preview time: path turn this far ahead is fed forward"),
         "crab_use": (1.0, "1", 0.0, 1.0, "weight of the measured crab angle (0 = off)"),
@@ -184,9 +181,6 @@ class LosLaw:
         self.crab_f_deg = 0.0
         self.crab_ok = False
         self.beta_hat_rad = 0.0
-        self.rate_f_dps = 0.0
-        self._prev_heading_deg = None
-        self.corr_deg = None  # the slewed correction (None: start from the first one)
         self._intercept_clamped = False
         self.out.valid = False
         self.out.clipped = False
@@ -321,7 +315,6 @@ class LosLaw:
         out.speed_cmd_mps = 0.0 if prog.finished else self._speed(prog, leg)
         if not prog.valid or not fix.heading_valid:
             out.valid = False
-            self._prev_heading_deg = None  # no yaw rate across a gap
             return out
         # measured crab: course over ground - heading, only when COG means something
         if fix.vel_valid and fix.sog_mps >= self.crab_min_speed_mps and self.crab_use > 0.0:
@@ -350,20 +343,8 @@ class LosLaw:
         corr = -math.atan2(y_lead, la) / _RAD
         self._intercept_clamped = corr > self.intercept_max_deg or corr < -self.intercept_max_deg
         corr = _clip(corr, -self.intercept_max_deg, self.intercept_max_deg)
-        if self.corr_rate_dps > 0.0:
-            if self.corr_deg is None:
-                self.corr_deg = corr
-            else:
-                mv = self.corr_rate_dps * dt_s
-                self.corr_deg += _clip(corr - self.corr_deg, -mv, mv)
-            corr = self.corr_deg
         course = prog.leg_bearing_deg + (tan_rad + prev_rad) / _RAD + corr
-        # yaw-rate damping from the GNSS heading (fast and true, unlike the pilot's lagged compass)
-        if self._prev_heading_deg is not None and dt_s > 0.0:
-            r = wrap180(fix.heading_deg - self._prev_heading_deg) / dt_s
-            self.rate_f_dps += (r - self.rate_f_dps) * (dt_s / (self.yaw_rate_tc_s + dt_s))
-        self._prev_heading_deg = fix.heading_deg
-        cmd = course - crab - self.beta_hat_rad / _RAD - self.yaw_damp_s * self.rate_f_dps
+        cmd = course - crab - self.beta_hat_rad / _RAD
         rel = wrap180(cmd - fix.heading_deg)
         out.clipped = rel > self.clip_deg or rel < -self.clip_deg
         rel = _clip(rel, -self.clip_deg, self.clip_deg)
