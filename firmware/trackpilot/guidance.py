@@ -137,7 +137,8 @@ class LosLaw:
     beta_hat' = gamma * lookahead / sqrt(lookahead^2 + y^2) * y, frozen while the command is
     clipped, while far off the path or slow (anti-windup), and clamped.
     lookahead = clamp(lookahead_gain * U * heading_tc_s, min, max) = 6 s x U by default, from
-    the closed heading response's spread with a stability margin (docs/NAVIGATION.md). Defaults: docs/NAVIGATION.md "Tuning".
+    the closed heading response's spread with a stability margin (docs/NAVIGATION.md).
+    Defaults: docs/NAVIGATION.md "Tuning".
     Corners are arcs of radius round_factor * turn_radius_m, shrunk where legs are too short
     (never below turn_radius_m / 2; sharper corners and reversals >= 170 deg are not rounded).
     The planned path is what path_xte_m measures against."""
@@ -151,7 +152,7 @@ class LosLaw:
         "lookahead_min_m": (6.0, "m", 1.0, 50.0, "lookahead clamp, low (gain x T' L: slow boat)"),
         "lookahead_max_m": (30.0, "m", 2.0, 200.0, "lookahead clamp, high"),
         "xte_lead_s": (3.0, "s", 0.0, 20.0, "damping: steer on the xte predicted this far ahead (0 = off)"),
-        "intercept_max_deg": (90.0, "deg", 5.0, 90.0, "clamp of the approach angle to the path (keeps the pilot out of saturation)"),
+        "intercept_max_deg": (90.0, "deg", 5.0, 90.0, "clamp of the approach angle to the path (90 = off)"),
         "preview_s": (3.5, "s", 0.0, 10.0, "preview time: path turn this far ahead is fed forward"),
         "crab_use": (1.0, "1", 0.0, 1.0, "weight of the measured crab angle (0 = off)"),
         "crab_tc_s": (2.0, "s", 0.2, 120.0, "low-pass time constant of the measured crab"),
@@ -328,8 +329,8 @@ class LosLaw:
         tan_rad, y, prev_rad, arc_r = self._path(prog, u_eff * self.preview_s)
         # adaptive crab (ALOS), anti-windup: frozen while clipped (the command or the approach
         # angle), far off or slow
-        if (self.alos_gain > 0.0 and not out.clipped and not self._intercept_clamped and abs(y) < self.alos_zone_m
-                and u >= self.crab_min_speed_mps and not prog.finished):
+        if (self.alos_gain > 0.0 and not out.clipped and not self._intercept_clamped
+                and abs(y) < self.alos_zone_m and u >= self.crab_min_speed_mps and not prog.finished):
             self.beta_hat_rad += dt_s * self.alos_gain * la / math.sqrt(la * la + y * y) * y
             lim = self.alos_max_deg * _RAD
             self.beta_hat_rad = _clip(self.beta_hat_rad, -lim, lim)
