@@ -238,7 +238,11 @@ def dask_client(scheduler=None, workers=2):
     from dask.distributed import Client, LocalCluster
 
     if scheduler:
-        return Client(scheduler, timeout="30s"), None
+        try:
+            return Client(scheduler, timeout="20s"), None
+        except (OSError, TimeoutError, ValueError) as e:  # an ordinary mistake: no traceback
+            raise SystemExit("cannot reach the Dask scheduler at %s: %s (start it with `dask scheduler`, "
+                             "workers with `dask worker %s`)" % (scheduler, e, scheduler))
     cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
                            silence_logs=logging.ERROR)
     return Client(cluster), cluster
@@ -507,7 +511,7 @@ def run(args):
     fw = fw_overrides(args.fw_set)
     jobs = make_jobs(args.robust, cases, laws, args.robust_seed, quick, args.run_timeout, fw)
     where = args.scheduler or "LocalCluster, %d workers" % args.jobs
-    print("robust bench: %d boats x %s x %s = %d runs (+ nominal) on %s" % (
+    print("robust bench: %d boats x %s x %s + the nominal boat: %d runs on %s" % (
         args.robust, "1 straight (quick)" if quick else "%d cases" % len(cases), "/".join(laws), len(jobs), where),
         flush=True)
     results = []
