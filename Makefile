@@ -60,6 +60,7 @@ sim: setup
 
 bench: setup
 	$(BIN)/trackpilot bench --out bench_out
+	$(BIN)/trackpilot bench --robust 10 --out bench_out/robust
 
 fuzz-long: setup
 	TRACKPILOT_FUZZ_N=2000000 $(BIN)/pytest -q -k fuzz tests

@@ -7,7 +7,7 @@ OUT/report.json, plus the per-run folders.
 - Compute and memory, unix-port figures (bench_perf.py).
 - The fault matrix (bench_faults.py).
 
-At most `--jobs` (default 2) worker processes; a run whose firmware stops answering is killed after
+On Dask distributed (a LocalCluster of `--jobs` worker processes, default 2, or `--scheduler`); a run whose firmware stops answering is killed after
 `--run-timeout` wall seconds and counted as a failure."""
 import json
 import math
@@ -16,7 +16,6 @@ import statistics
 import sys
 import time
 from collections import deque
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from pathlib import Path
 
 from . import bench_faults, bench_perf
@@ -620,6 +619,17 @@ def _esp32_equiv(perf):
     return lo
 
 
+class _Submitter:
+    """submit(fn, job) on a Dask client: one task per job, never cached (pure=False), retried once
+    if it raises (a worker that dies has its task rescheduled by the scheduler)."""
+
+    def __init__(self, client):
+        self.client = client
+
+    def submit(self, fn, job):
+        return self.client.submit(fn, job, pure=False, retries=1)
+
+
 def run(args):
     """The benchmark into a fresh temporary folder, renamed to --out when it has finished (an
     interrupted run leaves OUT.partial/ and the older OUT untouched; outdir.py)."""
@@ -728,7 +738,13 @@ def _run(args, out):
     resolution = 32768 if quick else 8192
     results, faults, mission_runs = [], [], 0
     inflight = {}
-    with ProcessPoolExecutor(max_workers=args.jobs) as ex:
+    from dask.distributed import wait
+
+    from .bench_robust import dask_client
+
+    client, cluster = dask_client(args.scheduler, args.jobs)
+    ex = _Submitter(client)
+    try:
         while queue or inflight or (bis is not None and not bis.done):
             while len(inflight) < args.jobs:
                 h = bis.next() if bis is not None else None
@@ -744,7 +760,7 @@ def _run(args, out):
                 break
             if not inflight:
                 break
-            done, _ = wait(list(inflight), return_when=FIRST_COMPLETED)
+            done, _ = wait(list(inflight), return_when="FIRST_COMPLETED")
             for fut in done:
                 tag, job = inflight.pop(fut)
                 try:
@@ -787,6 +803,10 @@ def _run(args, out):
                     perf.update(res)
                 elif tag == "frozen":
                     perf["frozen_heap"] = res
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
     if not args.no_perf:  # simulation speed of one run alone (nothing else running): the example track
         from .mpy import ROOT
         from .sim.runner import SimRun

@@ -176,3 +176,6 @@ def test_long_float_after_the_bridge(canal, tmp_path, float_s):
     modes = [v for t, n, v in res["outputs"] if n == "mode"]
     assert "ALARM" not in modes
     assert _max_xte_after_start(res) <= 2.0
+
+
+pytestmark = pytest.mark.mpy  # runs the firmware under $MICROPYTHON (so make test's 32-bit pass too)

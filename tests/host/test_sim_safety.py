@@ -121,3 +121,6 @@ def test_hand_remote_with_our_sender_id_repeating_our_key_is_a_takeover(tmp_path
     assert after and after[0] == "STANDBY", ms
     tk = [e.text for e in d.events if e.kind == "PILOT" and e.text.startswith("TAKEOVER")]
     assert tk and "sender 1" in tk[0], tk
+
+
+pytestmark = pytest.mark.mpy  # runs the firmware under $MICROPYTHON (so make test's 32-bit pass too)

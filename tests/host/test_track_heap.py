@@ -2,6 +2,7 @@
 a frozen build needs even less), the track parsed from its file by the firmware's own loader
 under MicroPython at `-X heapsize=110k`. Live heap per waypoint <= 40 B (it was ~550 B, and the
 old parser could not load 500 waypoints in this heap)."""
+import pytest
 import os
 import subprocess
 import sys
@@ -50,3 +51,6 @@ def test_2000_waypoints_load_in_110k(tmp_path):
         assert proc.returncode == 0, proc.stdout + proc.stderr
         live = int(proc.stdout.split("LIVE %d " % n)[1].split()[0])
         assert live / n <= 40.0, (n, live)
+
+
+pytestmark = pytest.mark.mpy  # runs the firmware under $MICROPYTHON (so make test's 32-bit pass too)
