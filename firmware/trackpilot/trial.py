@@ -109,6 +109,7 @@ class Trial:
         self.course_delta_deg = 0
         self.lead_deg = 0
         self.slow_since = None
+        self.rate_f = 0.0
         self.base_deg = heading_deg
         self.result = ""
         self._mark("begin rpms=%d,%d heading=%.1f" % (self.rpms[0], self.rpms[1], heading_deg))
@@ -132,9 +133,9 @@ class Trial:
         self._mark("end %s: %s" % (kind, reason))
         return (kind, reason)
 
-    def _settled(self, t_ms, pilot_err_deg, rate_dps, hold_s):
+    def _settled(self, t_ms, pilot_err_deg, hold_s):
         c = self.c
-        if abs(pilot_err_deg) <= c["settle_err_deg"] and abs(rate_dps) <= c["settle_rate_dps"]:
+        if abs(pilot_err_deg) <= c["settle_err_deg"] and abs(self.rate_f) <= c["settle_rate_dps"]:
             if self.settled_since is None:
                 self.settled_since = t_ms
             return ticks_diff(t_ms, self.settled_since) >= hold_s * 1000
@@ -148,6 +149,7 @@ class Trial:
             return None
         c = self.c
         self.course_delta_deg = 0
+        self.rate_f += (rate_dps - self.rate_f) * 0.1  # ~2 s at 5 Hz: wave yaw is not turning
         el_s = ticks_diff(t_ms, self.t0) / 1000.0
         if el_s > c["max_duration_s"]:
             return self._finish("abort", "longer than %d s" % c["max_duration_s"])
@@ -174,7 +176,7 @@ class Trial:
                 self._mark("straight end sog=%.2f" % sog_mps)
                 self._begin_step(t_ms, heading_deg)
         elif ph == P_STEP:
-            if self._settled(t_ms, pilot_err_deg, rate_dps, c["step_settle_s"]) or in_s >= c["step_max_s"]:
+            if self._settled(t_ms, pilot_err_deg, c["step_settle_s"]) or in_s >= c["step_max_s"]:
                 self._mark("step end %s after %.1f s" % (
                     "settled" if in_s < c["step_max_s"] else "NOT settled", in_s))
                 self.step_i += 1
