@@ -662,6 +662,8 @@ class App:
         rec.alarms = self.mm.alarms
         rec.mode = self.mm.mode
         rec.guided = 1 if out is not None else 0
+        # the compass's own time (it comes at 1-2 Hz): tune fits the compass lag with it
+        rec.compass_age_ms = -1 if ps.last_heading_ms is None else ticks_diff(t_ms, ps.last_heading_ms)
         self.log.control(rec)
 
     # ------------------------------------------------------------------ tasks
