@@ -1,0 +1,111 @@
+"""How well `trackpilot tune` recovers a boat: simulated trials on boats drawn from the robust
+bench's spreads (sim/boat_params.json "spread"), the true parameters hidden from the fit, then the
+fit's values against them.
+
+Usage: python -m trackpilot_tools.tune_bench N [--first SEED] [--out DIR]
+Writes DIR/tune_bench.json (one row per boat) and prints the error table.
+"""
+import argparse
+import json
+import math
+import sys
+from pathlib import Path
+
+from trackpilot_tools.mpy import ROOT
+
+TRACK = ROOT / "tracks" / "middelburg_loop.csv"
+
+
+def truth_of(p):
+    """The true values the fit should find (the simulator's own parameters)."""
+    b, pl = p["boat"], p["pilot"]
+    return {"k_prime": b["k_prime"], "t_prime": b["t_prime"], "compass_lag_s": pl["compass_lag_s"],
+            "rudder_limit_deg": pl["rudder_limit_deg"], "length_m": b["length_m"]}
+
+
+def one_boat(seed, out_dir):
+    """Sail the trial on boat `seed`, fit it; a row of fitted vs true values."""
+    from trackpilot_tools import logdecode
+    from trackpilot_tools import tune_fit as F
+    from trackpilot_tools.sim import params as pm
+    from trackpilot_tools.sim.runner import SimRun
+
+    spread = pm.load_spread()
+    over, flat = pm.draw_spread(seed, spread, pm.load())
+    out = Path(out_dir) / ("boat%03d" % seed)
+    run = SimRun(TRACK, out, seed=seed, scenario="calm", overrides=over, duration_s=900, trial=True)
+    res = run.run()
+    row = {"seed": seed, "drawn": flat, "sim_stop": run.stop_reason}
+    truth = truth_of(run.p)
+    row["truth"] = truth
+    try:
+        d = logdecode.decode_files(sorted((out / "fw" / "log").glob("*.tpl")))
+        fit = F.fit_all(d)
+    except F.TuneError as e:
+        row["refused"] = str(e)
+        return row
+    row["trial_s"] = fit["trial"]["duration_s"]
+    n, c, ci = fit["nomoto"], fit["compass"], fit["circle"]
+    row["fit"] = {"k_prime": n["k_prime"], "t_prime": n["t_prime"], "compass_lag_s": c["lag_s"],
+                  "radius_m": ci["radius_m"], "rudder_deg": ci["rudder_deg"]}
+    row["sd"] = {"k_prime": n["k_prime_sd"], "t_prime": n["t_prime_sd"], "compass_lag_s": c["lag_sd_s"],
+                 "radius_m": ci["radius_sd_m"]}
+    # the minimum radius the pilot really sails: the circle at the rudder it gave
+    row["truth"]["radius_m"] = truth["length_m"] / (truth["k_prime"] * ci["rudder_deg"] * math.pi / 180.0)
+    row["refusals"] = fit["problems"]
+    # the Nomoto fit's variants (window length, yaw bias per window or shared), for the record
+    tr, u = fit["_trial"], fit["_u"]
+    row["variants"] = {}
+    for nm, sb in ((50, False), (100, True)):
+        v = F.fit_nomoto(tr, u, 5.0, 0.075, nm, sb)
+        row["variants"]["%d_%s" % (nm, "shared" if sb else "window")] = {"k_prime": v["k_prime"], "t_prime": v["t_prime"]}
+    del res
+    return row
+
+
+def table(rows):
+    ok = [r for r in rows if "fit" in r]
+    lines = ["boats: %d, fitted: %d, refused: %d" % (len(rows), len(ok), len(rows) - len(ok))]
+    if not ok:
+        return "\n".join(lines)
+    def errs(key, rel):
+        out = []
+        for r in ok:
+            f, t = r["fit"][key], r["truth"][key]
+            out.append(abs(f - t) / abs(t) if rel else abs(f - t))
+        out.sort()
+        return out
+    for key, rel, goal in (("k_prime", True, 0.15), ("t_prime", True, 0.15), ("radius_m", False, 1.0),
+                           ("compass_lag_s", False, 0.15)):
+        e = errs(key, rel)
+        med = e[len(e) // 2]
+        p90 = e[min(len(e) - 1, int(0.9 * len(e)))]
+        within = sum(1 for x in e if x <= goal)
+        unit = "%" if rel else ""
+        k = 100.0 if rel else 1.0
+        lines.append("%-14s |error| median %.3g%s, p90 %.3g%s, worst %.3g%s; within %g%s: %d/%d" % (
+            key, med * k, unit, p90 * k, unit, e[-1] * k, unit, goal * k, unit, within, len(e)))
+    dur = [r["trial_s"] for r in ok]
+    lines.append("trial duration: %.0f-%.0f s" % (min(dur), max(dur)))
+    return "\n".join(lines)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(prog="tune_bench")
+    ap.add_argument("n", type=int)
+    ap.add_argument("--first", type=int, default=1)
+    ap.add_argument("--out", default="tune_bench_out")
+    args = ap.parse_args(argv)
+    rows = []
+    Path(args.out).mkdir(parents=True, exist_ok=True)
+    for seed in range(args.first, args.first + args.n):
+        row = one_boat(seed, args.out)
+        rows.append(row)
+        print(json.dumps({k: row.get(k) for k in ("seed", "fit", "truth", "refused")}), flush=True)
+        (Path(args.out) / "tune_bench.json").write_text(json.dumps(rows, indent=1))
+    print(table(rows))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
