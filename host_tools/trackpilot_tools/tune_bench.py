@@ -51,14 +51,10 @@ def one_boat(seed, out_dir):
     row["sd"] = {"k_prime": n["k_prime_sd"], "t_prime": n["t_prime_sd"], "compass_lag_s": c["lag_sd_s"],
                  "radius_m": ci["radius_sd_m"]}
     # the minimum radius the pilot really sails: the circle at the rudder it gave
+    row["truth"]["rudder_lag_s"] = run.p["boat"]["rudder_lag_s"]
+    row["fit"]["rudder_lag_s"] = n["rudder_lag_s"]
     row["truth"]["radius_m"] = truth["length_m"] / (truth["k_prime"] * ci["rudder_deg"] * math.pi / 180.0)
     row["refusals"] = fit["problems"]
-    # the Nomoto fit's variants (window length, yaw bias per window or shared), for the record
-    tr, u = fit["_trial"], fit["_u"]
-    row["variants"] = {}
-    for nm, sb in ((50, False), (100, True)):
-        v = F.fit_nomoto(tr, u, 5.0, 0.075, nm, sb)
-        row["variants"]["%d_%s" % (nm, "shared" if sb else "window")] = {"k_prime": v["k_prime"], "t_prime": v["t_prime"]}
     del res
     return row
 

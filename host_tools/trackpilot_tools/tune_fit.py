@@ -637,13 +637,15 @@ def fit_zigzag(trial):
 
 # --------------------------------------------------------------------------- guidance
 def phase_margin_deg(gain, tc, delay):
-    """Phase margin of the LOS path loop with a closed heading response e^-ds / (tc s + 1) and
-    lookahead = gain * U * tc: L(s) = e^-ds / (gain tc s (tc s + 1))."""
-    # crossover: gain tc w sqrt(1 + tc^2 w^2) = 1
+    """Phase margin of the LOS path loop (small angles: y' = U (heading - path), heading command
+    -y / lookahead) with a closed heading response e^-ds / (tc s + 1) and the firmware's
+    lookahead = gain * U * heading_tc_s, heading_tc_s = delay + tc:
+    L(s) = e^-ds / (gain (d + tc) s (tc s + 1)). Returns (margin deg, crossover rad/s)."""
+    la = gain * (delay + tc)
     lo, hi = 1e-4, 100.0
     for _ in range(100):
         w = math.sqrt(lo * hi)
-        if gain * tc * w * math.sqrt(1 + (tc * w) ** 2) > 1:
+        if la * w * math.sqrt(1 + (tc * w) ** 2) > 1:
             hi = w
         else:
             lo = w
@@ -668,7 +670,7 @@ def derive_guidance(nomoto, circle, steps, speed_map, margin_deg=50.0):
     la_min = round(min(50.0, max(1.0, g * nomoto["t_prime"] * nomoto["length_m"])), 1)
     cfg = {
         "boat": {"min_turn_radius_m": R},
-        "guidance": {"law": "los", "los_turn_radius_m": R, "los_heading_tc_s": heading_tc,
+        "guidance": {"law": "los", "los_heading_tc_s": heading_tc,  # boat.min_turn_radius_m sets the law's radius
                      "los_lookahead_gain": g, "los_lookahead_min_m": la_min},
         "motor": {"rpm_per_mps": round(max(1.0, speed_map["rpm_per_mps"]), 1),
                   "rpm_offset": round(speed_map["rpm_offset"], 1)},
@@ -711,12 +713,13 @@ def _lstsq(A, y):
     return x, cov
 
 
-# 2 sigma must stay inside the accuracy the lab asks for (issue 11's goals)
+# 1 sigma limits: beyond them a fit cannot tell the boat within the accuracy the lab asks for
+# (issue 11: K', T' within 15 %, radius within 1 m, compass lag within 0.15 s)
 UNCERTAINTY_LIMITS = (
-    ("nomoto", "k_prime_sd", "k_prime", 0.075, "K'", "the course steps and the zig-zag"),
-    ("nomoto", "t_prime_sd", "t_prime", 0.075, "T'", "the course steps and the zig-zag"),
+    ("nomoto", "k_prime_sd", "k_prime", 0.10, "K'", "the course steps and the zig-zag"),
+    ("nomoto", "t_prime_sd", "t_prime", 0.10, "T'", "the course steps and the zig-zag"),
     ("circle", "radius_sd_m", None, 0.5, "the turning radius", "the turning circles"),
-    ("compass", "lag_sd_s", None, 0.075, "the compass lag", "the turning circles and the zig-zag"),
+    ("compass", "lag_sd_s", None, 0.10, "the compass lag", "the turning circles and the zig-zag"),
 )
 
 
@@ -727,8 +730,9 @@ def uncertainty_problems(fit):
         sd = fit[part][sd_key]
         v = sd / abs(fit[part][rel_key]) if rel_key else sd
         if not math.isfinite(v) or v > lim:
-            shown = ("+-%.0f %%" % (200 * v)) if rel_key else ("+-%.2f" % (2 * sd))
-            out.append("%s too uncertain (%s at 2 sigma): repeat %s" % (name, shown, redo))
+            shown = ("+-%.0f %%" % (100 * v)) if rel_key else ("+-%.2f" % sd)
+            limit = ("%.0f %%" % (100 * lim)) if rel_key else ("%.2f" % lim)
+            out.append("%s too uncertain (%s, 1 sigma, limit %s): repeat %s" % (name, shown, limit, redo))
     for rpm, s in fit["steps"]["by_rpm"].items():
         if s["unsettled"] > 1:
             out.append("%d of the course steps at %d RPM did not settle: repeat the steps at that speed "

@@ -125,7 +125,9 @@ def test_no_rudder_reported_is_refused():
 
 
 def test_phase_margin_and_derived_lookahead():
-    pm, _ = F.phase_margin_deg(2.0, 1.0, 0.0)
-    assert pm == pytest.approx(65.5, abs=1.0)  # 2 x sqrt(1 + x^2) x = 1 -> x = 0.486
+    pm, w = F.phase_margin_deg(2.0, 1.0, 0.0)
+    x = w * 1.0
+    assert 2.0 * x * math.sqrt(1 + x * x) == pytest.approx(1.0, rel=1e-3)  # |L| = 1 at crossover
+    assert pm == pytest.approx(90 - math.degrees(math.atan(x)), abs=0.1)
     pm_d, _ = F.phase_margin_deg(2.0, 1.0, 0.5)
     assert pm_d < pm
