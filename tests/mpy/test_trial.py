@@ -154,3 +154,14 @@ def test_stop_from_outside_commands_nothing_more():
     eq(tr.lead_deg, 0)
     eq(tr.course_delta_deg, 0)
     true("stopped" in tr.result)
+
+
+def test_no_maintenance_or_upload_during_a_trial():
+    from trackpilot import maint
+
+    g = maint.Gate()
+    mm = M.ModeMachine()
+    mm.start_trial(0, None, "HMI")
+    ok, why = g.request(M.MODE_NAMES[mm.mode], 10)
+    true(not ok, why)
+    true("STANDBY" in why, why)
