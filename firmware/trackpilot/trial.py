@@ -6,6 +6,7 @@ the boat measures; it answers with what the pilot and the motor must do and queu
 (`drain_marks`) that the log keeps as TRIAL events. docs/COMMISSIONING.md is the crew's procedure.
 
 The script (each phase logged "TRIAL <phase> start/end ..." with its own numbers):
+    speed     rpm_low; at rpm_high after a 180 deg course change (the boat comes back)
     straight  rpm_low, no keys for `straight_s`: compass offset, crab angle, current, RPM -> speed
     steps     at rpm_low, then rpm_high: settle the speed, then course steps of STEPS_DEG by keystroke in the
               pilot's Auto, each held until the heading settles (or `step_max_s`)
@@ -165,7 +166,10 @@ class Trial:
         in_s = ticks_diff(t_ms, self.phase_t) / 1000.0
         ph = self.phase
         if ph == P_SPEED:
-            if in_s >= c["speed_settle_s"]:
+            # the second speed starts with a turn back (keeps the trial within a few hundred
+            # metres): it ends once the heading has settled on the reversed course
+            turned = self.rpm_i == 0 or abs(pilot_err_deg) <= c["settle_err_deg"] or in_s >= 60
+            if in_s >= c["speed_settle_s"] and turned:
                 self._mark("speed end rpm=%d sog=%.2f" % (self.rpm, sog_mps))
                 if self.rpm_i == 0 and self.step_i == 0:
                     self._enter(P_STRAIGHT, t_ms, "rpm=%d heading=%.1f" % (self.rpm, heading_deg))
@@ -187,7 +191,8 @@ class Trial:
                     self.rpm_i += 1
                     if self.rpm_i < len(self.rpms):
                         self.rpm = int(self.rpms[self.rpm_i])
-                        self._enter(P_SPEED, t_ms, "rpm=%d" % self.rpm)
+                        self.course_delta_deg = 180
+                        self._enter(P_SPEED, t_ms, "rpm=%d turn=180" % self.rpm)
                     else:
                         self.base_deg = heading_deg
                         self.zz_side = 1
