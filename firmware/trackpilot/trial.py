@@ -168,7 +168,7 @@ class Trial:
         if ph == P_SPEED:
             # the second speed starts with a turn back (keeps the trial within a few hundred
             # metres): it ends once the heading has settled on the reversed course
-            turned = self.rpm_i == 0 or abs(pilot_err_deg) <= c["settle_err_deg"] or in_s >= 60
+            turned = self.rpm_i == 0 or self._settled(t_ms, pilot_err_deg, c["step_settle_s"]) or in_s >= 60
             if in_s >= c["speed_settle_s"] and turned:
                 self._mark("speed end rpm=%d sog=%.2f" % (self.rpm, sog_mps))
                 if self.rpm_i == 0 and self.step_i == 0:

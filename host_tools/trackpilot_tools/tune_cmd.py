@@ -113,7 +113,7 @@ def report_text(fit, plots, args):
     L.append("| current seen | %.2f m/s towards %.0f deg (+- %.2f) |" % (cur["speed_mps"], cur["to_deg"], cur["sd_mps"]))
     rows = ", ".join("%d RPM: %.2f m/s" % (r, s) for r, s in zip(sm["rpm"], sm["speed_mps"]))
     L.append("| RPM -> water speed | %s (rpm = %.1f + %.1f x speed) |" % (rows, sm["rpm_offset"], sm["rpm_per_mps"]))
-    L.append("| speed time constant (RPM step) | %.1f s |" % sm["speed_tc_s"])
+    L.append("| speed time constant (RPM step, during the turn back: rough, not used) | %.1f s |" % sm["speed_tc_s"])
     L.append("\n## Pilot compass\n")
     L.append("| quantity | value |\n|---|---|")
     L.append("| lag | %s s |" % _pm(c["lag_s"], c["lag_sd_s"], "%.2f"))
