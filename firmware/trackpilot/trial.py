@@ -10,7 +10,7 @@ The script (each phase logged "TRIAL <phase> start/end ..." with its own numbers
     straight  rpm_low, no keys for `straight_s`: compass offset, crab angle, current, RPM -> speed
     steps     at rpm_low, then rpm_high: settle the speed, then course steps of STEPS_DEG by keystroke in the
               pilot's Auto, each held until the heading settles (or `step_max_s`)
-    zigzag    at rpm_high: the locked course 2 x `zigzag_deg` to one side of the base course,
+    zigzag    after the steps at each speed: the locked course 2 x `zigzag_deg` to one side of the base course,
               switched to the other side when the heading passes `zigzag_deg` (a course
               just `zigzag_deg` off would be reached only asymptotically), `zigzag_legs` legs
     circle    at rpm_high: the locked course kept `circle_lead_deg` ahead of the compass
@@ -167,8 +167,9 @@ class Trial:
         ph = self.phase
         if ph == P_SPEED:
             # the second speed starts with a turn back (keeps the trial within a few hundred
-            # metres): it ends once the heading has settled on the reversed course
-            turned = self.rpm_i == 0 or self._settled(t_ms, pilot_err_deg, c["step_settle_s"]) or in_s >= 60
+            # metres): it ends once the heading has settled on the reversed course, at most 45 s
+            # (the pilot's auto-trim winds up in the long full-rudder turn and unwinds slowly)
+            turned = self.rpm_i == 0 or self._settled(t_ms, pilot_err_deg, c["step_settle_s"]) or in_s >= 45
             if in_s >= c["speed_settle_s"] and turned:
                 self._mark("speed end rpm=%d sog=%.2f" % (self.rpm, sog_mps))
                 if self.rpm_i == 0 and self.step_i == 0:
@@ -188,24 +189,18 @@ class Trial:
                     self._begin_step(t_ms, heading_deg)
                 else:
                     self.step_i = 0
-                    self.rpm_i += 1
-                    if self.rpm_i < len(self.rpms):
-                        self.rpm = int(self.rpms[self.rpm_i])
-                        self.course_delta_deg = 180
-                        self._enter(P_SPEED, t_ms, "rpm=%d turn=180" % self.rpm)
-                    else:
-                        self.base_deg = heading_deg
-                        self.zz_side = 1
-                        self.zz_leg = 1
-                        self.course_delta_deg = 2 * c["zigzag_deg"]
-                        self._enter(P_ZIGZAG, t_ms, "deg=%d base=%.1f rpm=%d" % (c["zigzag_deg"], heading_deg, self.rpm))
+                    self.base_deg = heading_deg
+                    self.zz_side = 1
+                    self.zz_leg = 1
+                    self.course_delta_deg = 2 * c["zigzag_deg"]
+                    self._enter(P_ZIGZAG, t_ms, "deg=%d base=%.1f rpm=%d" % (c["zigzag_deg"], heading_deg, self.rpm))
         elif ph == P_ZIGZAG:
             off = wrap180(heading_deg - self.base_deg)
             if self.zz_side * off >= c["zigzag_deg"]:
                 if self.zz_leg >= c["zigzag_legs"]:
                     self.course_delta_deg = -self.zz_side * 2 * c["zigzag_deg"]  # back to the base
                     self._mark("zigzag end legs=%d" % self.zz_leg)
-                    self._begin_circle(t_ms, 1)
+                    self._after_zigzag(t_ms)
                 else:
                     self.zz_side = -self.zz_side
                     self.zz_leg += 1
@@ -213,7 +208,7 @@ class Trial:
                     self._mark("zigzag switch %+d at %.1f" % (self.zz_side * c["zigzag_deg"], heading_deg))
             elif in_s >= c["zigzag_max_s"]:
                 self._mark("zigzag end timeout legs=%d" % self.zz_leg)
-                self._begin_circle(t_ms, 1)
+                self._after_zigzag(t_ms)
         elif ph == P_CIRCLE:
             d = 0.0 if self.circ_prev is None else wrap180(heading_deg - self.circ_prev)
             self.circ_prev = heading_deg
@@ -230,6 +225,17 @@ class Trial:
         d = STEPS_DEG[self.step_i]
         self.course_delta_deg = d
         self._enter(P_STEP, t_ms, "%+d rpm=%d heading=%.1f" % (d, self.rpm, heading_deg))
+
+    def _after_zigzag(self, t_ms):
+        """The zig-zag at each speed (T = T' L / u changes with speed, the rudder's flow lag does
+        not: two speeds tell them apart); after the first, the turn back and the second speed."""
+        self.rpm_i += 1
+        if self.rpm_i < len(self.rpms):
+            self.rpm = int(self.rpms[self.rpm_i])
+            self.course_delta_deg += 180
+            self._enter(P_SPEED, t_ms, "rpm=%d turn=180" % self.rpm)
+        else:
+            self._begin_circle(t_ms, 1)
 
     def _begin_circle(self, t_ms, direction):
         self.circ_dir = direction

@@ -129,8 +129,10 @@ def report_text(fit, plots, args):
             _pm(s["delay_s"], s["delay_s_sd"], "%.2f"), _pm(s["tc_s"], s["tc_s_sd"], "%.2f"),
             _pm(100 * s["overshoot"], 100 * s["overshoot_sd"] if math.isfinite(s["overshoot_sd"]) else None, "%.0f"),
             _pm(s["gain"], s["gain_sd"], "%.2f"), _pm(s["steady_err_deg"], s["steady_err_deg_sd"], "%.1f")))
-    L.append("\nZig-zag overshoot: %s deg (mean %.1f).\n" % (
-        ", ".join("%.1f" % x for x in zz["overshoot_deg"]), zz["mean_overshoot_deg"]))
+    for rpm, peaks in sorted(zz["overshoot_deg"].items()):
+        L.append("\nZig-zag at %d RPM, overshoot: %s deg (mean %.1f)." % (
+            rpm, ", ".join("%.1f" % x for x in peaks), zz["mean_overshoot_deg"][rpm]))
+    L.append("")
     L.append("## Tuned configuration (config.json)\n")
     L.append("```json\n%s\n```\n" % json.dumps(fit["config"], indent=2))
     L.append("Margin: the LOS path loop with the slowest closed heading response measured (%d RPM: "

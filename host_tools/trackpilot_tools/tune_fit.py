@@ -608,31 +608,34 @@ def fit_steps(trial):
 
 
 def fit_zigzag(trial):
-    """Overshoot angles of the zig-zag (deg beyond the switching heading), as IMO reports them."""
+    """Overshoot angles of each zig-zag (deg beyond the switching heading), as IMO reports them."""
     a = trial["a"]
     zz = segments(trial, "zigzag")
     if not zz:
         raise TuneError("no zig-zag in the trial: repeat it")
-    t0, t1, info = zz[0]
-    m = _sel(a, t0, t1) & a["heading_ok"]
-    h = _smooth(a["heading"][m], 5)
-    base = float(info.get("base", h[0]))
-    off = wrap180(h - base)
-    zd = float(info.get("deg", 10))
-    peaks = []
-    i = 0
-    side = 1
-    while i < len(off):
-        j = np.nonzero(side * off[i:] >= zd)[0]
-        if not len(j):
-            break
-        k0 = i + j[0]
-        k1 = np.nonzero(side * off[k0:] < zd)[0]
-        k1 = k0 + (k1[0] if len(k1) else len(off) - k0)
-        peaks.append(float(np.max(side * off[k0:k1]) - zd))
-        i = k1
-        side = -side
-    return {"overshoot_deg": peaks, "mean_overshoot_deg": float(np.mean(peaks)) if peaks else float("nan")}
+    by_rpm = {}
+    for t0, t1, info in zz:
+        m = _sel(a, t0, t1) & a["heading_ok"]
+        h = _smooth(a["heading"][m], 5)
+        base = float(info.get("base", h[0]))
+        off = wrap180(h - base)
+        zd = float(info.get("deg", 10))
+        peaks = []
+        i = 0
+        side = 1
+        while i < len(off):
+            j = np.nonzero(side * off[i:] >= zd)[0]
+            if not len(j):
+                break
+            k0 = i + j[0]
+            k1 = np.nonzero(side * off[k0:] < zd)[0]
+            k1 = k0 + (k1[0] if len(k1) else len(off) - k0)
+            peaks.append(float(np.max(side * off[k0:k1]) - zd))
+            i = k1
+            side = -side
+        by_rpm[int(info.get("rpm", 0))] = peaks
+    return {"overshoot_deg": by_rpm,
+            "mean_overshoot_deg": {r: (float(np.mean(p)) if p else float("nan")) for r, p in by_rpm.items()}}
 
 
 # --------------------------------------------------------------------------- guidance
