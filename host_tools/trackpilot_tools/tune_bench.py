@@ -25,8 +25,6 @@ def truth_of(p):
 
 def one_boat(seed, out_dir):
     """Sail the trial on boat `seed`, fit it; a row of fitted vs true values."""
-    from trackpilot_tools import logdecode
-    from trackpilot_tools import tune_fit as F
     from trackpilot_tools.sim import params as pm
     from trackpilot_tools.sim.runner import SimRun
 
@@ -34,9 +32,17 @@ def one_boat(seed, out_dir):
     over, flat = pm.draw_spread(seed, spread, pm.load())
     out = Path(out_dir) / ("boat%03d" % seed)
     run = SimRun(TRACK, out, seed=seed, scenario="calm", overrides=over, duration_s=900, trial=True)
-    res = run.run()
+    run.run()
     row = {"seed": seed, "drawn": flat, "sim_stop": run.stop_reason}
-    truth = truth_of(run.p)
+    return fit_boat(row, out, run.p)
+
+
+def fit_boat(row, out, params):
+    """Fit the trial log in `out` (fw/log) and compare with the simulator's parameters."""
+    from trackpilot_tools import logdecode
+    from trackpilot_tools import tune_fit as F
+
+    truth = truth_of(params)
     row["truth"] = truth
     try:
         d = logdecode.decode_files(sorted((out / "fw" / "log").glob("*.tpl")))
@@ -51,11 +57,10 @@ def one_boat(seed, out_dir):
     row["sd"] = {"k_prime": n["k_prime_sd"], "t_prime": n["t_prime_sd"], "compass_lag_s": c["lag_sd_s"],
                  "radius_m": ci["radius_sd_m"]}
     # the minimum radius the pilot really sails: the circle at the rudder it gave
-    row["truth"]["rudder_lag_s"] = run.p["boat"]["rudder_lag_s"]
+    row["truth"]["rudder_lag_s"] = params["boat"]["rudder_lag_s"]
     row["fit"]["rudder_lag_s"] = n["rudder_lag_s"]
     row["truth"]["radius_m"] = truth["length_m"] / (truth["k_prime"] * ci["rudder_deg"] * math.pi / 180.0)
     row["refusals"] = fit["problems"]
-    del res
     return row
 
 
@@ -91,8 +96,20 @@ def main(argv=None):
     ap.add_argument("n", type=int)
     ap.add_argument("--first", type=int, default=1)
     ap.add_argument("--out", default="tune_bench_out")
+    ap.add_argument("--refit", action="store_true",
+                    help="fit the trials already sailed in --out again (after a change of the fit)")
     args = ap.parse_args(argv)
     rows = []
+    if args.refit:
+        for d in sorted(Path(args.out).glob("boat[0-9][0-9][0-9]")):
+            if not (d / "sim_params.json").is_file() or not list((d / "fw" / "log").glob("*.tpl")):
+                continue
+            row = fit_boat({"seed": int(d.name[4:])}, d, json.loads((d / "sim_params.json").read_text()))
+            rows.append(row)
+            print(json.dumps({k: row.get(k) for k in ("seed", "fit", "truth", "refused", "refusals")}), flush=True)
+        (Path(args.out) / "tune_refit.json").write_text(json.dumps(rows, indent=1))
+        print(table(rows))
+        return 0
     Path(args.out).mkdir(parents=True, exist_ok=True)
     for seed in range(args.first, args.first + args.n):
         row = one_boat(seed, args.out)

@@ -362,9 +362,10 @@ class _Windows:
     """The manoeuvres cut into windows of `n_meas` GNSS samples, on a common fine grid."""
 
     def __init__(self, trial, u, rudder_t, rudder, n_meas=50, dt=0.05, gnss_latency_s=0.075,
-                 shared_bias=False):
+                 shared_bias=False, wind_terms=True):
         a = trial["a"]
         self.shared_bias = shared_bias
+        self.wind_terms = wind_terms
         self.dt = dt
         # the manoeuvres are back to back: windows run across them (from the first course step)
         man = [sg for sg in trial["segments"] if sg[0] in ("step", "zigzag", "circle")]
@@ -388,6 +389,8 @@ class _Windows:
         tg = t0[:, None] + np.arange(self.n)[None, :] * dt  # (W, N)
         self.delta = rudder_signal(rudder_t, rudder, tg)
         self.u = np.maximum(np.interp(tg, a["t"], u), 0.3)
+        hg = np.interp(tg, a["t"] - gnss_latency_s, a["heading"]) * D2R
+        self.sinh, self.cosh = np.sin(hg), np.cos(hg)  # the wind's yaw moment turns with the heading
         pos = (tm - t0[:, None]) / dt
         self.i0 = np.clip(np.floor(pos).astype(int), 0, self.n - 2)
         self.w = pos - self.i0
@@ -402,16 +405,20 @@ class _Windows:
         T = tp * L / self.u
         aT = np.exp(-dt / T)
         ad = math.exp(-dt / lag) if lag > 1e-4 else 0.0
-        out = np.zeros((3, W, N))
-        r = np.zeros((3, W))
+        nr = 5 if self.wind_terms else 3
+        out = np.zeros((nr, W, N))
+        r = np.zeros((nr, W))
         r[1] = 1.0
-        psi = np.zeros((3, W))
+        psi = np.zeros((nr, W))
         de = self.delta[:, 0].copy()
         zero, one = np.zeros(W), np.ones(W)
         for k in range(N - 1):
             de_next = self.delta[:, k + 1] + (de - self.delta[:, k + 1]) * ad
             # the rudder's mean over the step (a step-start value would lag by dt / 2)
-            rss = np.stack([K[:, k] * 0.5 * (de + de_next), zero, one])
+            if self.wind_terms:
+                rss = np.stack([K[:, k] * 0.5 * (de + de_next), zero, one, self.sinh[:, k], self.cosh[:, k]])
+            else:
+                rss = np.stack([K[:, k] * 0.5 * (de + de_next), zero, one])
             a_ = aT[:, k]
             Tk = T[:, k]
             psi = psi + rss * dt + (r - rss) * Tk * (1.0 - a_)
@@ -424,6 +431,24 @@ class _Windows:
         resp = self.simulate(kp, tp, lag, L)
         rows = np.arange(self.W)[:, None]
         samp = resp[:, rows, self.i0] * (1 - self.w) + resp[:, rows, self.i0 + 1] * self.w  # (3, W, M)
+        if self.wind_terms:
+            # per window: start heading, start yaw rate, yaw bias; shared: the wind's yaw moment
+            # A sin h + B cos h (constant wind: it turns with the heading, in circles too)
+            W, M = self.W, samp.shape[2]
+            A = np.zeros((W * M, 3 * W + 2))
+            for wi in range(W):
+                sl = slice(wi * M, (wi + 1) * M)
+                A[sl, 3 * wi] = 1.0
+                A[sl, 3 * wi + 1] = samp[1, wi]
+                A[sl, 3 * wi + 2] = samp[2, wi]
+                A[sl, 3 * W] = samp[3, wi]
+                A[sl, 3 * W + 1] = samp[4, wi]
+            y = (self.psi - samp[0]).ravel()
+            x, *_ = np.linalg.lstsq(A, y, rcond=None)
+            e = y - A @ x
+            if want_parts:
+                return e, list((y - e).reshape(W, M) + samp[0])
+            return e
         if self.shared_bias:
             W, M = self.W, samp.shape[2]
             A = np.zeros((W * M, 2 * W + 1))
@@ -452,12 +477,13 @@ class _Windows:
         return res
 
 
-def fit_nomoto(trial, u, L=5.0, gnss_latency_s=0.075, n_meas=100, shared_bias=False):
+def fit_nomoto(trial, u, L=5.0, gnss_latency_s=0.075, n_meas=100, shared_bias=False, wind_terms=True):
     """K', T' and the rudder's flow lag, by output error with variable projection; uncertainty from
     the Jacobian, widened for correlated residuals."""
     a = trial["a"]
     rt, _comp, rud = compass_readings(a)
-    win = _Windows(trial, u, rt, rud, n_meas=n_meas, gnss_latency_s=gnss_latency_s, shared_bias=shared_bias)
+    win = _Windows(trial, u, rt, rud, n_meas=n_meas, gnss_latency_s=gnss_latency_s, shared_bias=shared_bias,
+                   wind_terms=wind_terms)
     if np.max(np.abs(rud)) < 5.0:
         raise TuneError("the pilot reports no rudder angle (|rudder| < 5 deg throughout): K' and T' "
                         "cannot be fitted from this pilot's status")
@@ -503,7 +529,7 @@ def fit_nomoto(trial, u, L=5.0, gnss_latency_s=0.075, n_meas=100, shared_bias=Fa
             break
     J = np.column_stack([(f(x + np.eye(3)[i] * steps[i]) - r) / steps[i] for i in range(3)])
     n = len(r)
-    sigma2 = cost / max(1, n - 3 - (2 * win.W + 1 if shared_bias else 3 * win.W))
+    sigma2 = cost / max(1, n - 3 - (3 * win.W + 2 if wind_terms else 2 * win.W + 1 if shared_bias else 3 * win.W))
     infl = _corr_inflation(r)
     try:
         cov = np.linalg.inv(J.T @ J) * sigma2 * infl
