@@ -135,7 +135,7 @@ def report_text(fit, plots, args):
     L.append("")
     L.append("## Tuned configuration (config.json)\n")
     L.append("```json\n%s\n```\n" % json.dumps(fit["config"], indent=2))
-    L.append("Margin: the LOS path loop with the slowest closed heading response measured (%d RPM: "
+    L.append("Margin: the LOS path loop with the closed heading response measured at %d RPM ("
              "delay %.2f s, time constant %.2f s) has a phase margin of %.0f deg (target %.0f deg) "
              "at %.2f rad/s with lookahead gain %.1f." % (
                  mg["at_rpm"], mg["heading_delay_s"], mg["heading_tc_s"], mg["phase_margin_deg"],

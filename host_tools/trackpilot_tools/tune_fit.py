@@ -684,8 +684,10 @@ def phase_margin_deg(gain, tc, delay):
 
 def derive_guidance(nomoto, circle, steps, speed_map, margin_deg=50.0):
     """Settings for the firmware's configuration from the fits. Returns (config partial, notes)."""
+    # the response at the higher RPM: tracks are sailed at cruising speed, and the law scales the
+    # lookahead with speed (lookahead = gain * U * heading_tc_s) for the slower ones
     rpms = sorted(steps["by_rpm"])
-    worst = max(rpms, key=lambda r: steps["by_rpm"][r]["t63_s"] if math.isfinite(steps["by_rpm"][r]["t63_s"]) else -1)
+    worst = rpms[-1]
     s = steps["by_rpm"][worst]
     delay = max(0.0, s["delay_s"]) if math.isfinite(s["delay_s"]) else 0.5
     tc = max(0.2, s["tc_s"]) if math.isfinite(s["tc_s"]) else 2.0
@@ -696,11 +698,10 @@ def derive_guidance(nomoto, circle, steps, speed_map, margin_deg=50.0):
     R = circle["radius_m"] + 2.0 * (circle["radius_sd_m"] if math.isfinite(circle["radius_sd_m"]) else 0.5)
     R = round(min(100.0, max(2.0, R)), 1)
     heading_tc = round(min(10.0, max(0.2, delay + tc)), 2)
-    la_min = round(min(50.0, max(1.0, g * nomoto["t_prime"] * nomoto["length_m"])), 1)
     cfg = {
         "boat": {"min_turn_radius_m": R},
         "guidance": {"law": "los", "los_heading_tc_s": heading_tc,  # boat.min_turn_radius_m sets the law's radius
-                     "los_lookahead_gain": g, "los_lookahead_min_m": la_min},
+                     "los_lookahead_gain": g},
         "motor": {"rpm_per_mps": round(max(1.0, speed_map["rpm_per_mps"]), 1),
                   "rpm_offset": round(speed_map["rpm_offset"], 1)},
     }
