@@ -20,7 +20,8 @@ MODE_STANDBY = const(0)
 MODE_AUTO = const(1)
 MODE_ALARM = const(2)
 MODE_ESTOP = const(3)
-MODE_NAMES = ("STANDBY", "AUTO", "ALARM", "E-STOP")
+MODE_TRIAL = const(4)  # commissioning trial (docs/COMMISSIONING.md)
+MODE_NAMES = ("STANDBY", "AUTO", "ALARM", "E-STOP", "TRIAL")
 
 # GNSS quality (same numbers as trackpilot.fix.RTK_*).
 RTK_NAMES = ("none", "single", "float", "fixed")
