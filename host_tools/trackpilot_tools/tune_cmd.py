@@ -102,7 +102,9 @@ def report_text(fit, plots, args):
         ", ".join(args.logs), fit["trial"]["duration_s"], len(fit["trial"]["manoeuvres"])))
     if fit["problems"]:
         L.append("**TOO UNCERTAIN (written with --force):** " + "; ".join(fit["problems"]) + "\n")
-    L.append("## Boat (Nomoto, L = %.1f m)\n" % n["length_m"])
+    for w in fit.get("warnings", ()):
+        L.append("Note: %s.\n" % w)
+        L.append("## Boat (Nomoto, L = %.1f m)\n" % n["length_m"])
     L.append("| quantity | value |\n|---|---|")
     L.append("| K' | %s |" % _pm(n["k_prime"], n["k_prime_sd"]))
     L.append("| T' | %s |" % _pm(n["t_prime"], n["t_prime_sd"]))

@@ -763,10 +763,17 @@ def uncertainty_problems(fit):
             shown = ("+-%.0f %%" % (100 * v)) if rel_key else ("+-%.2f" % sd)
             limit = ("%.0f %%" % (100 * lim)) if rel_key else ("%.2f" % lim)
             out.append("%s too uncertain (%s, 1 sigma, limit %s): repeat %s" % (name, shown, limit, redo))
+    return out
+
+
+def warnings(fit):
+    """Things the report points out that do not stop the configuration."""
+    out = []
     for rpm, s in fit["steps"]["by_rpm"].items():
-        if s["unsettled"] > s["steps"] // 2:
-            out.append("%d of the course steps at %d RPM did not settle: repeat the steps at that speed "
-                       "(calmer water, or a longer step_max_s)" % (s["unsettled"], rpm))
+        if s["unsettled"]:
+            out.append("%d of the %d course steps at %d RPM had not settled within step_max_s (the "
+                       "pilot's auto-trim, or waves): its closed-response numbers are less certain"
+                       % (s["unsettled"], s["steps"], rpm))
     return out
 
 
@@ -787,6 +794,7 @@ def fit_all(d, length_m=5.0, gnss_latency_s=0.075, margin_deg=50.0):
            "current": cur, "speed_map": sm, "compass": comp, "nomoto": nom, "circle": circ,
            "steps": steps, "zigzag": zz, "_trial": tr, "_u": u}
     fit["problems"] = uncertainty_problems(fit)
+    fit["warnings"] = warnings(fit)
     fit["config"], fit["margins"] = derive_guidance(nom, circ, steps, sm, margin_deg)
     fit["sim_params"] = sim_params(nom, comp, sm)
     return fit
