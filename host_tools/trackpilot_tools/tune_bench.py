@@ -61,6 +61,7 @@ def fit_boat(row, out, params):
     row["fit"]["rudder_lag_s"] = n["rudder_lag_s"]
     row["truth"]["radius_m"] = truth["length_m"] / (truth["k_prime"] * ci["rudder_deg"] * math.pi / 180.0)
     row["refusals"] = fit["problems"]
+    (Path(out) / "tune_config.json").write_text(json.dumps(fit["config"], indent=1))
     return row
 
 
@@ -98,8 +99,21 @@ def main(argv=None):
     ap.add_argument("--out", default="tune_bench_out")
     ap.add_argument("--refit", action="store_true",
                     help="fit the trials already sailed in --out again (after a change of the fit)")
+    ap.add_argument("--compare", action="store_true",
+                    help="sail the accepted boats (tune_refit.json) with the tuned and the default configuration")
     args = ap.parse_args(argv)
     rows = []
+    if args.compare:
+        fits = json.loads((Path(args.out) / "tune_refit.json").read_text())
+        seeds = [r["seed"] for r in fits if "fit" in r and not r.get("refusals")]
+        res = compare_configs(args.out, seeds)
+        for name in ("default", "tuned"):
+            for k in ("rms_m", "p95_m", "max_m"):
+                v = sorted(r[name][k] for r in res if r[name][k] is not None)
+                if v:
+                    print("%-8s %-6s median %.2f  p90 %.2f  worst %.2f m" % (
+                        name, k, v[len(v) // 2], v[min(len(v) - 1, int(0.9 * len(v)))], v[-1]))
+        return 0
     if args.refit:
         for d in sorted(Path(args.out).glob("boat[0-9][0-9][0-9]")):
             if not (d / "sim_params.json").is_file() or not list((d / "fw" / "log").glob("*.tpl")):
@@ -118,6 +132,33 @@ def main(argv=None):
         (Path(args.out) / "tune_bench.json").write_text(json.dumps(rows, indent=1))
     print(table(rows))
     return 0
+
+
+
+def compare_configs(out_dir, seeds):
+    """Sail the TRUE boat of each bench boat with tune's configuration and with the defaults
+    (los): truth xte RMS / p95 / max of each. python -m trackpilot_tools.tune_bench 0 --compare
+    --out DIR (uses DIR/tune_refit.json: the boats tune accepted)."""
+    from trackpilot_tools.sim import report
+    from trackpilot_tools.sim.runner import SimRun
+
+    rows = []
+    for seed in seeds:
+        d = Path(out_dir) / ("boat%03d" % seed)
+        params = json.loads((d / "sim_params.json").read_text())
+        cfg = json.loads((d / "tune_config.json").read_text())
+        row = {"seed": seed}
+        for name, fw in (("default", {}), ("tuned", cfg)):
+            run = SimRun(TRACK, d / ("sail_" + name), seed=seed, params=json.loads(json.dumps(params)),
+                         fw_config=fw)
+            res = run.run()
+            summ = report.summarize_run(res, {"track": str(TRACK), "law": "los", "scenario": "bench", "seed": seed})
+            t = summ.get("truth_xte_vs_track") or {}
+            row[name] = {k: t.get(k) for k in ("rms_m", "p95_m", "max_m")}
+        rows.append(row)
+        print(json.dumps(row), flush=True)
+    (Path(out_dir) / "tune_compare.json").write_text(json.dumps(rows, indent=1))
+    return rows
 
 
 if __name__ == "__main__":
