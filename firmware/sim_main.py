@@ -1,6 +1,7 @@
 """Entry point of the firmware in simulation (docs/SIM_PROTOCOL.md).
 
     micropython firmware/sim_main.py --config CFG.json --track TRACK.csv --data DIR [--seed N]
+                                     [--profile] [--heap-stages]
 
 Runs the same App as main.py on the ESP32; only the wiring and the clock/event-loop adapter differ.
 Diagnostics go to stderr; stdout carries the protocol.
@@ -10,11 +11,12 @@ import sys
 
 def _args(argv):
     opts = {"--config": None, "--track": None, "--data": "/tmp/trackpilot_sim", "--seed": "1",
-            "--reset-cause": "power-on", "--tick-base": None, "--quiet": None, "--profile": None}
+            "--reset-cause": "power-on", "--tick-base": None, "--quiet": None, "--profile": None,
+            "--heap-stages": None}
     i = 1
     while i < len(argv):
         a = argv[i]
-        if a in ("--quiet", "--profile"):
+        if a in ("--quiet", "--profile", "--heap-stages"):
             opts[a] = "1"
             i += 1
             continue
@@ -25,30 +27,85 @@ def _args(argv):
     return opts
 
 
+def largest_free_block():
+    """The largest free block of the heap (bytes), from the project's host builds (gcinfo, see
+    tools/README.md); None elsewhere (finding it by allocating can pin the block found)."""
+    try:
+        import gcinfo
+    except ImportError:
+        return None
+    return gcinfo.info()[3]
+
+
+def heap_stage(name):
+    """One line of the start-up heap table on stderr (--heap-stages): live heap after a
+    collection, free heap and the largest free block."""
+    import gc
+
+    gc.collect()
+    live = gc.mem_alloc()
+    free = gc.mem_free()
+    big = largest_free_block()
+    sys.stderr.write("sim_main: heap stage %-16s live %6d B, free %6d B, largest free block %6s B\n" % (
+        name, live, free, "-" if big is None else big))
+
+
+async def _heap_watch(link, app):
+    """--heap-stages: the heap once the tasks run, then in steady state (every 10 min)."""
+    import asyncio
+
+    await asyncio.sleep_ms(0)
+    heap_stage("tasks started")
+    while True:
+        await asyncio.sleep_ms(600000)
+        heap_stage("t=%d s" % (link.t_ms // 1000))
+
+
 def main():
+    opts = _args(sys.argv)
+    stages = opts["--heap-stages"]
+    if stages:
+        heap_stage("interpreter")
     from trackpilot import config
     from trackpilot.simio import SimLink
     from trackpilot.wiring_sim import Wiring
 
-    opts = _args(sys.argv)
     if opts["--config"]:
         cfg, problems = config.load(opts["--config"])
     else:
         cfg, problems = config.defaults(), ["no --config: built-in defaults"]
+    if stages:
+        heap_stage("config")
     base = int(opts["--tick-base"]) if opts["--tick-base"] else (1 << 30) - 60000
     link = SimLink(sys.stdin.buffer, sys.stdout.buffer, tick_base=base)
     asyncio = link.install()
     wiring = Wiring(link, opts["--data"], seed=int(opts["--seed"]), quiet=bool(opts["--quiet"]))
+    if stages:
+        heap_stage("asyncio, wiring")
     from trackpilot.app import App
 
+    if stages:
+        heap_stage("app imported")
     app = App(wiring, cfg, problems, reset_cause=opts["--reset-cause"])
+    if stages:
+        heap_stage("App()")
     if opts["--profile"]:
         app.profile = True
         app.profile_out = open(opts["--data"] + "/profile.txt", "w")
     link.stop_callback = app.stop_event.set
     if opts["--track"]:
         app.load_track(opts["--track"])
-    asyncio.run(app.run())
+        if stages:
+            heap_stage("track loaded")
+    if stages:
+        async def _run():
+            asyncio.create_task(_heap_watch(link, app))
+            await app.run()
+
+        asyncio.run(_run())
+        heap_stage("stopped")
+    else:
+        asyncio.run(app.run())
     import gc
 
     gc.collect()
@@ -57,7 +114,12 @@ def main():
                          link.t_ms, app.epochs, app.peak_heap, gc.mem_alloc(), gc.mem_free(),
                          app.gc_runs, app.gc_max_us))
     if app.profile:
-        _profile_report(app, opts["--data"])
+        try:
+            _profile_report(app, opts["--data"])
+        except MemoryError:  # the summary sorts every sample; the samples are in the file anyway
+            app.profile_out = None
+            sys.stderr.write("sim_main: profile: no summary (MemoryError in a small heap); samples in %s\n" % (
+                opts["--data"] + "/profile.txt"))
 
 
 def _profile_report(app, data_dir):

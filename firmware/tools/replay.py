@@ -80,6 +80,27 @@ def _fill(fix, r):
     fix.cog_deg = r.cog_deg
 
 
+class _Interval:
+    """The epoch interval as the app's GNSS parser measures it (gnss.GnssParser._measure, iTOW
+    part): the law's time step. Dead-reckoned records (iTOW -1) are skipped."""
+
+    def __init__(self):
+        self.interval_ms = 0
+        self._prev = -1
+        self._cand = 0
+
+    def update(self, itow_ms):
+        if itow_ms < 0:
+            return
+        if self._prev >= 0:
+            d = (itow_ms - self._prev) % 604800000
+            if 0 < d <= 10000:
+                if -5 <= d - self._cand <= 5:
+                    self.interval_ms = d
+                self._cand = d
+        self._prev = itow_ms
+
+
 def main():
     logs, cfg_path, law_name, sets, csv = _args(sys.argv)
     if not logs:
@@ -97,6 +118,7 @@ def main():
     law = guidance.make_law(cfg["guidance"], boat)
     rule = progress.RULE_SEED if cfg["guidance"]["law"] == "seed" else progress.RULE_ROBUST
     fix = Fix()
+    iv = _Interval()
     prog = None
     ref = None
     n_ctrl = n_guided = same_heading = same_speed = 0
@@ -133,7 +155,9 @@ def main():
                 n_ctrl += 1
                 _fill(fix, r)
                 guided = bool(getattr(r, "guided", 0))
-                new_ref, out = control.guide_epoch(fix, prog, law, boat, guided)
+                iv.update(r.itow_ms)
+                new_ref, out = control.guide_epoch(fix, prog, law, boat, guided,
+                                                   control.epoch_dt_s(iv.interval_ms))
                 if new_ref is not None:
                     ref = new_ref
                 prev_mode = r.mode

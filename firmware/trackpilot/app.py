@@ -1,7 +1,9 @@
 """The application: the asyncio shell around the functional core.
 
-One GNSS epoch (5 Hz) is the clock of the control loop: the GNSS task feeds bytes to the parser and
-runs `control_step` once per completed epoch. Other tasks run the SeaTalk link, the motor link, the
+One GNSS epoch (5 Hz, or the receiver's measured rate) is the clock of the control loop: the GNSS
+task feeds bytes to the parser and runs `control_step` once per completed epoch; in AUTO, when
+epochs stop, the supervisor's gap timer runs it on the dead-reckoned position instead
+(docs/MODES.md "GNSS gaps"). Other tasks run the SeaTalk link, the motor link, the
 wind sensor, the inputs (buttons, E-stop, remote), the logger, telemetry and the supervisor that feeds
 the watchdog only while every task is alive.
 
@@ -41,7 +43,18 @@ def _error_text(e):
 
 class App:
     def __init__(self, wiring, cfg, cfg_problems=(), reset_cause="unknown"):
-        from trackpilot import gnss, guidance, logger, motor, mwv, seatalk, st2000, stlink
+        from trackpilot import logger
+
+        # the largest buffers first (the log's 4 KB write buffer and 2 KB header frame), while the
+        # heap is still one block; the other modules are imported after them
+        self.log = logger.Logger(
+            wiring.log_dir,
+            max_file_bytes=cfg["log"]["max_file_bytes"],
+            min_free_bytes=cfg["log"]["min_free_bytes"],
+            flush_ms=cfg["log"]["flush_ms"],
+            statvfs=wiring.statvfs,
+        )
+        from trackpilot import gnss, guidance, motor, mwv, seatalk, st2000, stlink
 
         self.w = wiring
         self.cfg = cfg
@@ -60,6 +73,8 @@ class App:
         self.gnss_quality_name = "none"  # fixed / float / single / none / dead-reckoning (logged)
         self.rate_reported_ms = 0  # the receiver's epoch interval last reported
         self.dr_step_ms = None  # the last control step run by the gap timer
+        self.dr_gap_s = 0.0  # the last dead-reckoned step: time since the fix, 1-sigma
+        self.dr_sigma_m = 0.0
         self.wind = mwv.MwvParser()
         pcfg = cfg["pilot"]
         odd = seatalk.ODD_KNAUF if pcfg["odd_rule"] == "knauf" else seatalk.ODD_DOTNET
@@ -77,13 +92,6 @@ class App:
         self.track = None
         self.progress = None
         self.track_id = ""
-        self.log = logger.Logger(
-            wiring.log_dir,
-            max_file_bytes=cfg["log"]["max_file_bytes"],
-            min_free_bytes=cfg["log"]["min_free_bytes"],
-            flush_ms=cfg["log"]["flush_ms"],
-            statvfs=wiring.statvfs,
-        )
         self.reset_cause = reset_cause
         self.cfg_problems = list(cfg_problems)
         from trackpilot.config import rejected
@@ -391,8 +399,9 @@ class App:
             ok, why = False, "no GNSS epoch for %d ms" % ticks_diff(t_ms, self.last_epoch_ms)
             self.dr_step_ms = t_ms
         nav = self.navigation_fix(t_ms, ok, epoch, dt_s)
-        self.mm.gnss_quality(t_ms, ok, why, dr=nav is not fix)
-        self.note_quality(ok, nav is not fix)
+        dr = nav is not fix
+        self.mm.gnss_quality(t_ms, ok, why, dr=dr, bad_s=self.dr.hold_s if dr else None)
+        self.note_quality(ok, dr)
         mm = self.mm
         guiding = mm.mode == M.AUTO and not mm.holding and (not mm.degraded or mm.dead_reckoning)
         leg_before = self.progress.leg if self.progress is not None else 0
@@ -496,11 +505,16 @@ class App:
         h = self.dr_heading(t_ms)
         if h is None:
             return fix
+        if epoch and fix.pos_valid and fix.rtk >= self.steer_min_rtk:
+            # only the dual-antenna heading is missing: the RTK position with the compass heading
+            dr.good_fix(t_ms, fix, self.water_speed_cmd_mps(), dt_s)
         # a degraded epoch's own Doppler velocity (a single fix has it to a few cm/s) beats the
         # water speed and current; its 1-2 m position does not beat dead reckoning (docs/GNSS.md)
         vel = (fix.sog_mps, fix.cog_deg) if epoch and fix.vel_valid and fix.pos_valid else None
         if not dr.predict(t_ms, h, self.water_speed_cmd_mps(), vel):
             return fix
+        self.dr_gap_s = dr.gap_s(t_ms)
+        self.dr_sigma_m = dr.sigma_m
         return dr.fix
 
     def note_quality(self, ok, dead_reckoning):
@@ -514,14 +528,14 @@ class App:
             name = RTK_NAMES[fix.rtk]
         if name != self.gnss_quality_name:
             extra = ""
-            if name == "float":
-                extra = " (steering with the XTE alarm limit doubled)"
-            elif name == "dead-reckoning":
+            if name == "dead-reckoning":
                 extra = " (from the fix %.1f s ago, 1-sigma %.1f m, growing %.2f m/s)" % (
                     self.dr.gap_s(self.clock()), self.dr.sigma_m, self.dr.sigma_rate_mps)
             elif self.gnss_quality_name == "dead-reckoning":
-                extra = " (dead reckoning ended after %.1f s, 1-sigma %.1f m)" % (
-                    self.dr.gap_s(self.clock()), self.dr.sigma_m)
+                extra = " (dead reckoning ended: %.1f s, 1-sigma %.1f m)" % (
+                    self.dr_gap_s, self.dr_sigma_m)
+            if name == "float":
+                extra += " (steering with the XTE alarm limit doubled)"
             self.event("GNSS", "quality %s -> %s%s" % (self.gnss_quality_name, name, extra))
             self.gnss_quality_name = name
 
@@ -537,17 +551,14 @@ class App:
                 ", configured %d ms: the control step uses the measured one" % gnss.EPOCH_MS))
 
     def gnss_watch(self, t_ms):
-        """The gap timer (every 100 ms): epochs stopped for one interval + 80 ms -> the step runs
-        on the dead-reckoned position (motor slowed at once), one step per epoch interval.
-        80 ms: above the receiver's latency jitter, and the loss is acted on within 0.5 s."""
-        if self.last_epoch_ms is None or self.mm.mode != M.AUTO:
-            return
-        iv = self.gnss.interval_ms or 200
-        if ticks_diff(t_ms, self.last_epoch_ms) < iv + 80:
-            return
-        if self.dr_step_ms is not None and ticks_diff(t_ms, self.dr_step_ms) < iv:
-            return
-        self.control_step(t_ms, epoch=False)
+        """The gap timer (every 100 ms, AUTO only): once epochs stopped, the control step runs on
+        the dead-reckoned position (motor slowed at once), one step per epoch interval
+        (deadreckon.gap_step_due)."""
+        from trackpilot.deadreckon import gap_step_due
+
+        if self.mm.mode == M.AUTO and gap_step_due(t_ms, self.last_epoch_ms, self.gnss.interval_ms,
+                                                   self.dr_step_ms):
+            self.control_step(t_ms, epoch=False)
 
     def apply_pilot(self, t_ms):
         """Turn the mode machine's pilot decision into driver commands, once per change."""
@@ -730,6 +741,8 @@ class App:
         --profile, the benchmark); the normal path above has no measuring in it."""
         from time import ticks_diff as us_diff
 
+        if gc.mem_free() < 32768:
+            gc.collect()  # outside the window: with the collector off, a full heap cannot be reclaimed
         gc.disable()
         try:
             a0 = gc.mem_alloc()
@@ -896,14 +909,16 @@ class App:
             await asyncio.sleep_ms(self.grid_ms(200))
 
     def nmea_sentences(self):
-        """GGA, RMC, HDT and XTE for chart plotters (UDP 10110 on the boat)."""
+        """GGA, RMC, HDT, XTE, RMB and APB for chart plotters (UDP 10110 on the boat)."""
         from trackpilot import nmea_out
 
         fix = self.fix
         out = nmea_out.gga(fix) + nmea_out.rmc(fix) + nmea_out.hdt(fix)
         p = self.progress
         if p is not None and fix.pos_valid:
-            out += nmea_out.xte(p.xte_m, valid=self.mm.mode == M.AUTO)
+            auto = self.mm.mode == M.AUTO
+            out += nmea_out.xte(p.xte_m, valid=auto)
+            out += nmea_out.route(fix, p, valid=auto, heading_cmd_deg=self.heading_cmd_deg if auto else None)
         return out
 
     async def task_telemetry(self):
@@ -952,7 +967,7 @@ class App:
             await asyncio.sleep_ms(self.grid_ms(100))  # the GNSS gap timer needs < 0.5 s
 
     def start_ntrip(self):
-        """RTK corrections: caster -> GNSS UART (Wi-Fi is brought up by the wiring)."""
+        """RTK corrections: caster -> GNSS UART (with Wi-Fi: once the link is first up, task_wifi)."""
         self.ntrip_task = asyncio.create_task(ntrip.run_client(
             self.cfg["ntrip"], self.w.gnss_uart.write, self.clock, gga=self.gga_bytes, events=self.event))
 
@@ -963,6 +978,19 @@ class App:
             self.ntrip_restarts += 1
             self.event("FAULT", "NTRIP task ended (restart %d)" % self.ntrip_restarts)
             self.start_ntrip()
+
+    async def task_wifi(self):
+        """Wi-Fi (wifi.WifiLink, built by the board's wiring): start, then poll; its state goes
+        to the HMI and the status datagram; NTRIP waits for the first link."""
+        link = self.w.wifi
+        for text in link.start(self.clock()):
+            self.event("WIFI", text)
+        while True:
+            for text in link.poll(self.clock()):
+                self.event("WIFI", text)
+            if link.is_up() and self.cfg["ntrip"]["enabled"] and self.ntrip_task is None:
+                self.start_ntrip()  # once; the client reconnects by itself, watch_ntrip restarts it
+            await asyncio.sleep_ms(500)
 
     def _check_stable(self, t):
         """Tell the boot-loop guard once the app has run stably (bootguard.py)."""
@@ -1011,7 +1039,9 @@ class App:
             asyncio.create_task(coro)
         self.ntrip_task = None
         self.ntrip_restarts = 0
-        if self.cfg["ntrip"]["enabled"]:
+        if getattr(self.w, "wifi", None) is not None:
+            asyncio.create_task(self.task_wifi())  # starts NTRIP once the link is up
+        elif self.cfg["ntrip"]["enabled"]:
             self.start_ntrip()
         await self.stop_event.wait()
         self.event("STOP", "application stopped")

@@ -45,7 +45,7 @@ SCHEMA = {
     },
     "modes": {
         # GNSS gap inside AUTO: dead reckoning this long, then ALARM (docs/MODES.md "GNSS gaps")
-        "gnss_hold_s": (30.0, "f", 0.0, 120.0),
+        "gnss_hold_s": (40.0, "f", 0.0, 120.0),
         "gnss_stale_ms": (1000, "i", 300, 10000),
         "xte_alarm_m": (5.0, "f", 0.5, 100.0),
         "on_arrival": ("standby", "s", ("standby", "hold"), None),
@@ -114,6 +114,17 @@ SCHEMA = {
         "user": ("", "s", None, None),
         "password": ("", "s", None, None),
         "gga_interval_s": (10, "i", 0, 600),
+    },
+    "wifi": {  # trackpilot/wifi.py, docs/WIRING.md; the passwords are never logged
+        "enabled": (False, "b", None, None),  # station: join the boat's router
+        "ssid": ("", "s", None, None),
+        "password": ("", "s", None, None),
+        "ap_enabled": (False, "b", None, None),  # access point for a laptop (WPA2 only)
+        "ap_ssid": ("trackpilot", "s", None, None),
+        "ap_password": ("", "s", None, None),  # 8..63 characters, else no access point
+        "connect_timeout_ms": (15000, "i", 2000, 120000),
+        "backoff_min_ms": (2000, "i", 500, 60000),
+        "backoff_max_ms": (60000, "i", 1000, 600000),
     },
     "wiring": {  # ESP32-S3 reference hardware, docs/WIRING.md; -1 = not fitted
         "gnss_uart": (1, "i", 0, 2),

@@ -7,12 +7,16 @@ Pure logic, no I/O: the app feeds it good fixes and, in a gap, asks for a predic
     dr.good_fix(t_ms, fix, water_mps)                # every steerable epoch (RTK fixed/float)
     ok = dr.predict(t_ms, heading_deg, water_mps, gnss_vel)   # in a gap; fills dr.fix
     dr.sigma_m                                       # 1-sigma position uncertainty, grows
+    gap_step_due(t_ms, last_epoch_ms, interval_ms, last_step_ms)   # the app's gap timer rule
 
 Velocity in a gap, best first:
  1. the receiver's own velocity (Doppler; good to a few cm/s even without RTK, e.g. in a single
     fix after a bridge) when the epoch has one: `gnss_vel` = (sog_mps, cog_deg);
  2. else water speed along the compass heading plus the water current learnt while fixes were
     good (current = ground velocity - water speed along the heading, low-pass filtered).
+With the receiver's velocity the error grows about a quarter as fast (its Doppler velocity is good
+to ~0.03 m/s; water speed, current and a compass bent by steel give ~0.1 m/s): such seconds count
+DOPPLER_WEIGHT toward the uncertainty and toward the hold time (`hold_s`, docs/MODES.md).
 Water speed comes from the motor RPM (the app's rpm map) through a first-order lag, the hull's
 surge response. The absolute position stays integer (1e-7 deg + 1e-9 parts); only the offset
 from the last fix (metres) is a float.
@@ -25,14 +29,29 @@ from trackpilot.geo import move_hp
 
 _DEG = math.pi / 180.0
 
+GAP_MARGIN_MS = 80  # above the receiver's latency jitter; with a 100 ms timer the loss is
+# acted on within 0.5 s at 5 Hz (epoch 200 ms + latency <= 100 ms + 80 ms + timer 100 ms)
+
+
+def gap_step_due(t_ms, last_epoch_ms, interval_ms, last_step_ms):
+    """The gap timer's rule: True when no epoch came for one epoch interval (200 ms until it is
+    measured) + GAP_MARGIN_MS, and the last dead-reckoned step is one interval old (or none)."""
+    iv = interval_ms if interval_ms > 0 else 200
+    if last_epoch_ms is None or ticks_diff(t_ms, last_epoch_ms) < iv + GAP_MARGIN_MS:
+        return False
+    return last_step_ms is None or ticks_diff(t_ms, last_step_ms) >= iv
+
 
 class DeadReckoner:
     """sigma_rate_mps: how fast the 1-sigma position error grows in a gap (heading offset error
     ~2 deg at 1.5 m/s plus an unknown current change ~0.05 m/s: ~0.1 m/s).
     current_tc_s: time constant of the current estimate (waves and yaw average out).
-    surge_tc_s: RPM setpoint -> water speed lag (boat + motor controller, about 5 s)."""
+    surge_tc_s: RPM -> water speed lag of the hull (3.5 s; the app feeds the RPM the motor
+    controller reports, which already has the controller's own lag)."""
 
-    def __init__(self, sigma_rate_mps=0.1, current_tc_s=20.0, surge_tc_s=5.0):
+    DOPPLER_WEIGHT = 0.25  # a second with the receiver's velocity counts this much of the hold
+
+    def __init__(self, sigma_rate_mps=0.1, current_tc_s=20.0, surge_tc_s=3.5):
         self.sigma_rate_mps = sigma_rate_mps
         self.current_tc_s = current_tc_s
         self.surge_tc_s = surge_tc_s
@@ -48,6 +67,8 @@ class DeadReckoner:
         self.north_m = 0.0
         self.sigma0_m = 0.0
         self.sigma_m = 0.0
+        self.drift_m = 0.0  # accumulated 1-sigma growth since the fix
+        self.hold_s = 0.0  # gap time as the hold counts it (Doppler seconds weigh less)
         self.cur_e_mps = 0.0
         self.cur_n_mps = 0.0
         self.cur_n = 0  # samples in the current estimate
@@ -79,6 +100,8 @@ class DeadReckoner:
         self.east_m = self.north_m = 0.0
         self.sigma0_m = fix.h_acc_m
         self.sigma_m = fix.h_acc_m
+        self.drift_m = 0.0
+        self.hold_s = 0.0
         self.t_fix_ms = self.t_ms = t_ms
         self.valid = True
 
@@ -88,7 +111,7 @@ class DeadReckoner:
     def predict(self, t_ms, heading_deg, water_cmd_mps, gnss_vel=None):
         """Advance the prediction to t_ms (an injected-clock time; differences only). Returns
         False without a good fix to start from. Fills self.fix (RTK_NONE, pos and heading valid,
-        velocity = the one used)."""
+        sog/cog = the velocity used, vel_valid False)."""
         if not self.valid:
             return False
         dt_s = ticks_diff(t_ms, self.t_ms) / 1000.0
@@ -106,8 +129,10 @@ class DeadReckoner:
         self.east_m += ve * dt_s
         self.north_m += vn * dt_s
         self.t_ms = t_ms
-        gap_s = ticks_diff(t_ms, self.t_fix_ms) / 1000.0
-        g = self.sigma_rate_mps * gap_s
+        k = self.DOPPLER_WEIGHT if gnss_vel is not None else 1.0
+        self.hold_s += k * dt_s
+        self.drift_m += k * self.sigma_rate_mps * dt_s
+        g = self.drift_m
         self.sigma_m = math.sqrt(self.sigma0_m * self.sigma0_m + g * g)
         f = self.fix
         p = move_hp(self.lat_e7, self.lon_e7, self.east_m, self.north_m, self.lat_hp, self.lon_hp)
@@ -119,7 +144,9 @@ class DeadReckoner:
         f.heading_valid = True
         f.heading_deg = heading_deg % 360.0
         f.heading_acc_deg = 2.0
-        f.vel_valid = True
+        # the velocity is logged but not offered as measured: a law would learn a false crab
+        # from it (COG against a compass heading that steel near a bridge bends)
+        f.vel_valid = False
         f.sog_mps = math.sqrt(ve * ve + vn * vn)
         f.cog_deg = (math.atan2(ve, vn) / _DEG) % 360.0
         return True

@@ -23,11 +23,11 @@ Epochs (see docs/GNSS.md): messages are merged into a private working Fix; an ep
  1. on NAV-EOE (the receiver's own end-of-epoch marker);
  2. once every message kind the stream sends per epoch has arrived (`close_on=None`, automatic):
     the set is learnt from the stream, so any message order works without extra latency. It
-    starts as {NAV-PVT}; a kind arriving late (for an epoch already closed) two epochs in a row
-    joins the set (those two epochs lost it, the next ones wait for it; a kind that is late only
-    now and then, such as 1 Hz NMEA among 5 Hz UBX, does not); two epochs in a row that closed without
-    the whole set (by the rules below) replace the set by what the last one had. With
-    `close_on` (message names) the named messages close the epoch instead;
+    starts as {NAV-PVT}; a kind arriving late (for an epoch already closed) for the first epoch,
+    or later two epochs in a row, joins the set (that epoch lost it, the next ones wait for it;
+    a kind that is late only now and then, such as 1 Hz NMEA among 5 Hz UBX, does not); two
+    epochs in a row that closed without the whole set (by the rules below) replace the set by
+    what the last one had. With `close_on` (message names) those messages close the epoch;
  3. on a message carrying another iTOW (UBX) or UTC time (NMEA) than the open epoch;
  4. when `epoch_timeout_ms` (or 3/4 of the measured epoch interval, if longer) passed since its
     first message (checked at each feed()).
@@ -260,7 +260,6 @@ class GnssParser:
         self._prev_utc = -1
         self._cand_ms = 0
         self.interval_ms = 0  # measured epoch interval (0: not known yet)
-        self.closed_by = 0  # 0 EOE/last message, 1 new time, 2 timeout, 3 flush (last epoch)
         self._p_pos = _P_NONE
         self._p_stat = _P_NONE
         self._p_vel = _P_NONE
@@ -760,8 +759,9 @@ class GnssParser:
         if late:
             self.stats.late += 1
             bit = 1 << kind
-            if self._auto_close and self._late_prev & bit:
-                self._close_mask |= bit  # late twice in a row: the stream sends it last
+            if self._auto_close and (self._late_prev & bit or self.stats.epochs < 2):
+                # late for the first epoch, or twice in a row: the stream sends it last
+                self._close_mask |= bit
             self._late_cur |= bit
             return False
         w = self._w
@@ -829,10 +829,11 @@ class GnssParser:
             self._cand_ms = d
 
     def _close(self, by=0):
+        """by: 0 its last message (EOE, the learnt set, close_on), 1 a new time, 2 timeout,
+        3 flush."""
         if not self._open:
             return
         w = self._w
-        self.closed_by = by
         self._late_prev = self._late_cur
         self._late_cur = 0
         if self._auto_close and by:

@@ -130,13 +130,16 @@ class SeedLaw:
 class LosLaw:
     """Line-of-sight guidance on the planned path (legs with rounded corners).
 
-    course_d = path tangent + preview turn - atan(path_xte / lookahead)
+    course_d = path tangent + preview turn - atan(y_lead / lookahead), the approach angle clamped
+    y_lead = path_xte + xte_lead_s * U * sin(heading + crab - path tangent): the xte predicted
+    xte_lead_s ahead, the damping that keeps the loop stable over unknown pilots (docs/NAVIGATION.md
+    "Robust over boats we have not modelled")
     heading_cmd = course_d - crab (measured COG - heading, low-pass) - beta_hat (ALOS)
     beta_hat' = gamma * lookahead / sqrt(lookahead^2 + y^2) * y, frozen while the command is
     clipped, while far off the path or slow (anti-windup), and clamped.
-    lookahead = clamp(lookahead_gain * U * heading_tc_s, min, max); the low clamp is the same
-    formula with the hull's own time constant T = T' L / U (U * T = T' L = 2.4 m), so below about
-    2 m/s the lookahead stops shrinking with speed. Defaults: docs/NAVIGATION.md "Tuning".
+    lookahead = clamp(lookahead_gain * U * heading_tc_s, min, max) = 6 s x U by default, from
+    the closed heading response's spread with a stability margin (docs/NAVIGATION.md).
+    Defaults: docs/NAVIGATION.md "Tuning".
     Corners are arcs of radius round_factor * turn_radius_m, shrunk where legs are too short
     (never below turn_radius_m / 2; sharper corners and reversals >= 170 deg are not rounded).
     The planned path is what path_xte_m measures against."""
@@ -146,10 +149,11 @@ class LosLaw:
         "turn_radius_m": (9.0, "m", 2.0, 100.0, "the boat's minimum turning radius"),
         "round_factor": (1.5, "1", 1.0, 5.0, "corner radius / turning radius"),
         "lookahead_gain": (2.0, "1", 0.5, 10.0, "lookahead = gain * speed * heading_tc_s"),
-        "heading_tc_s": (1.5, "s", 0.2, 10.0, "time constant of heading response (boat + pilot)"),
+        "heading_tc_s": (3.0, "s", 0.2, 10.0, "time constant of heading response (boat + pilot)"),
         "lookahead_min_m": (6.0, "m", 1.0, 50.0, "lookahead clamp, low (gain x T' L: slow boat)"),
-        "lookahead_max_m": (20.0, "m", 2.0, 200.0, "lookahead clamp, high"),
-        "xte_lead_s": (0.0, "s", 0.0, 20.0, "damping: steer on the xte predicted this far ahead (0 = off)"),
+        "lookahead_max_m": (30.0, "m", 2.0, 200.0, "lookahead clamp, high"),
+        "xte_lead_s": (3.0, "s", 0.0, 20.0, "damping: steer on the xte predicted this far ahead (0 = off)"),
+        "intercept_max_deg": (90.0, "deg", 5.0, 90.0, "clamp of the approach angle to the path (90 = off)"),
         "preview_s": (3.5, "s", 0.0, 10.0, "preview time: path turn this far ahead is fed forward"),
         "crab_use": (1.0, "1", 0.0, 1.0, "weight of the measured crab angle (0 = off)"),
         "crab_tc_s": (2.0, "s", 0.2, 120.0, "low-pass time constant of the measured crab"),
@@ -179,6 +183,7 @@ class LosLaw:
         self.crab_f_deg = 0.0
         self.crab_ok = False
         self.beta_hat_rad = 0.0
+        self._intercept_clamped = False
         self.out.valid = False
         self.out.clipped = False
 
@@ -336,9 +341,10 @@ class LosLaw:
                 self.crab_f_deg += (c - self.crab_f_deg) * (dt_s / (self.crab_tc_s + dt_s))
         la = _clip(self.lookahead_gain * u_eff * self.heading_tc_s, self.lookahead_min_m, self.lookahead_max_m)
         tan_rad, y, prev_rad, arc_r = self._path(prog, u_eff * self.preview_s)
-        # adaptive crab (ALOS), anti-windup: frozen while clipped, far off or slow
-        if (self.alos_gain > 0.0 and not out.clipped and abs(y) < self.alos_zone_m
-                and u >= self.crab_min_speed_mps and not prog.finished):
+        # adaptive crab (ALOS), anti-windup: frozen while clipped (the command or the approach
+        # angle), far off or slow
+        if (self.alos_gain > 0.0 and not out.clipped and not self._intercept_clamped
+                and abs(y) < self.alos_zone_m and u >= self.crab_min_speed_mps and not prog.finished):
             self.beta_hat_rad += dt_s * self.alos_gain * la / math.sqrt(la * la + y * y) * y
             lim = self.alos_max_deg * _RAD
             self.beta_hat_rad = _clip(self.beta_hat_rad, -lim, lim)
@@ -349,7 +355,10 @@ class LosLaw:
         if self.xte_lead_s > 0.0 and self.crab_ok:
             chi_rad = wrap180(fix.heading_deg + self.crab_f_deg - prog.leg_bearing_deg) * _RAD - tan_rad
             y_lead = y + self.xte_lead_s * u * math.sin(chi_rad)
-        course = prog.leg_bearing_deg + (tan_rad + prev_rad - math.atan2(y_lead, la)) / _RAD
+        corr = -math.atan2(y_lead, la) / _RAD
+        self._intercept_clamped = corr > self.intercept_max_deg or corr < -self.intercept_max_deg
+        corr = _clip(corr, -self.intercept_max_deg, self.intercept_max_deg)
+        course = prog.leg_bearing_deg + (tan_rad + prev_rad) / _RAD + corr
         cmd = course - crab - self.beta_hat_rad / _RAD
         rel = wrap180(cmd - fix.heading_deg)
         out.clipped = rel > self.clip_deg or rel < -self.clip_deg

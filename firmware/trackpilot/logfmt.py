@@ -254,6 +254,16 @@ def _put_uv(buf, i, v):
     return i + 1
 
 
+def _put_text(buf, i, text):
+    """Puts text (str, \r as a space, or bytes) at buf[i:]; returns the index after it. Past the
+    buffer: the index it would have reached (the caller checks the length)."""
+    b = text.replace("\r", " ").encode() if isinstance(text, str) else text
+    e = i + len(b)
+    if e <= len(buf) - 2:
+        buf[i:e] = b
+    return e
+
+
 def _put_sv(buf, i, v):
     return _put_uv(buf, i, (v << 1) if v >= 0 else ((-v) << 1) - 1)
 
@@ -351,6 +361,10 @@ class LogEncoder:
         self._mv = memoryview(self._buf)
         self._ebuf = bytearray(3 + 5 + 1 + 32 + _MAX_TEXT + 2)
         self._emv = memoryview(self._ebuf)
+        # the HEADER frame is built here, allocated once at start (a new file's header is
+        # about 900 B: allocating it late, in a fragmented heap, was the first thing to fail)
+        self._hbuf = bytearray(3 + MAX_PAYLOAD + 2)
+        self._hmv = memoryview(self._hbuf)
         self.records = 0
         self.keyframes = 0
         self._seq = 0  # control record counter (mod 256): a lost whole record is detected
@@ -366,27 +380,41 @@ class LogEncoder:
     def header(self, fw_version="", config_hash="", track_id="", reset_cause="", t0_ms=0,
                utc="", session=0, part=0, **extra):
         """The HEADER record (bytes). Every file starts with one; keys are free text values."""
-        lines = [
-            "fw=%s" % fw_version,
-            "config=%s" % config_hash,
-            "track=%s" % track_id,
-            "reset=%s" % reset_cause,
-            "t0_ms=%d" % t0_ms,
-            "utc=%s" % utc,
-            "session=%d" % session,
-            "part=%d" % part,
-            "key_every=%d" % self.key_every,
-        ]
+        return bytes(self.header_into(fw_version, config_hash, track_id, reset_cause, t0_ms, utc,
+                                      session, part, **extra))
+
+    def header_into(self, fw_version="", config_hash="", track_id="", reset_cause="", t0_ms=0,
+                    utc="", session=0, part=0, **extra):
+        """header() built in the encoder's preallocated buffer: a memoryview of it, valid until
+        the next call."""
+        buf = self._hbuf
+        j = _put_text(buf, 3, MAGIC)
+        buf[j] = FORMAT_VERSION
+        j += 1
+        j = _put_text(buf, j, "fw=%s" % fw_version)
+        j = _put_text(buf, j, "\nconfig=%s" % config_hash)
+        j = _put_text(buf, j, "\ntrack=%s" % track_id)
+        j = _put_text(buf, j, "\nreset=%s" % reset_cause)
+        j = _put_text(buf, j, "\nt0_ms=%d" % t0_ms)
+        j = _put_text(buf, j, "\nutc=%s" % utc)
+        j = _put_text(buf, j, "\nsession=%d" % session)
+        j = _put_text(buf, j, "\npart=%d" % part)
+        j = _put_text(buf, j, "\nkey_every=%d" % self.key_every)
         for k in sorted(extra):
-            lines.append("%s=%s" % (k, extra[k]))
+            j = _put_text(buf, j, "\n%s=%s" % (k, extra[k]))
         for name, scale, unit, coding, mod in self.fields:
-            lines.append("f %s %d %s %s %d" % (name, scale, unit or "-", coding, mod))
-        text = "\n".join(lines).replace("\r", " ").encode()
-        payload = MAGIC + bytes((FORMAT_VERSION,)) + text
-        if len(payload) > MAX_PAYLOAD:
-            raise ValueError("log header too long (%d bytes)" % len(payload))
+            j = _put_text(buf, j, "\nf %s %d %s %s %d" % (name, scale, unit or "-", coding, mod))
+        n = j - 3  # payload length
+        if n > MAX_PAYLOAD:
+            raise ValueError("log header too long (%d bytes)" % n)
+        start = 1 if n < 0x80 else 0  # the frame head (tag + 1 or 2 length bytes) ends at 3
+        buf[start] = _TAG_BASE | T_HEADER
+        _put_uv(buf, start + 1, n)
+        c = crc16(buf, start, j)
+        buf[j] = c & 0xFF
+        buf[j + 1] = c >> 8
         self.force_keyframe()
-        return _whole_frame(T_HEADER, payload)
+        return self._hmv[start : j + 2]
 
     def _values(self, rec):
         cur = self._cur
@@ -471,9 +499,13 @@ class LogEncoder:
     def encode_track(self, waypoints, track_id=""):
         """TRACK record(s) (bytes): waypoints with attributes lat_e7, lon_e7, speed_mps, name,
         radius_m (None allowed). Long tracks are split into several records."""
+        return b"".join(list(self.iter_track(waypoints, track_id)))
+
+    def iter_track(self, waypoints, track_id=""):
+        """The TRACK records of encode_track one at a time (each under 1 KB): a long track is
+        never encoded into one large buffer."""
         idb = track_id.encode()[:64]
         total = len(waypoints)
-        out = []
         first = 0
         while True:
             body = bytearray()
@@ -506,11 +538,10 @@ class LogEncoder:
             j += 1
             head[j : j + len(idb)] = idb
             j += len(idb)
-            out.append(_whole_frame(T_TRACK, bytes(head[:j]) + bytes(body)))
+            yield _whole_frame(T_TRACK, bytes(head[:j]) + bytes(body))
             first = k
             if first >= total:
                 break
-        return b"".join(out)
 
 
 def _whole_frame(typ, payload):

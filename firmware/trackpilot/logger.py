@@ -97,7 +97,7 @@ class Logger:
         self.part = -1
         self.path = ""
         self._hdr = {}
-        self._track = b""
+        self._track = None  # (waypoints, track id): its records are encoded when written
         self._now_ms = 0
         self._due_ms = 0
         self._space_due_ms = 0
@@ -234,7 +234,7 @@ class Logger:
         for k in h:
             if k not in ("config_hash", "track_id", "reset_cause", "utc"):
                 extra[k] = h[k]
-        head = self.enc.header(
+        head = self.enc.header_into(
             fw_version=self.fw_version, config_hash=h.get("config_hash", ""),
             track_id=h.get("track_id", ""), reset_cause=h.get("reset_cause", ""),
             t0_ms=self._now_ms & 0x3FFFFFFF, utc=h.get("utc", ""), session=self.session,
@@ -247,7 +247,8 @@ class Logger:
             self.part -= 1
             return
         if self._track:
-            self._write(self._track)
+            for rec in self.enc.iter_track(self._track[0], self._track[1]):
+                self._write(rec)
 
     def _close_file(self):
         if self._f is not None:
@@ -334,14 +335,19 @@ class Logger:
         if hasattr(waypoints, "waypoints"):
             track_id = track_id or getattr(waypoints, "name", "") or ""
             waypoints = waypoints.waypoints
-        self._track = self.enc.encode_track(waypoints, track_id)
+        # kept as the waypoints, not as bytes: a 2000-waypoint track's records are ~25 KB
+        self._track = (waypoints, track_id)
         if not self.session:
             return  # before start(): the first part writes it after its header
         if self.level >= 2:
             self._dropped(True)
             return
-        self._room_for(len(self._track))
-        self._queue(self._track, True)
+        total = 0
+        for rec in self.enc.iter_track(waypoints, track_id):
+            total += len(rec)
+        self._room_for(total)
+        for rec in self.enc.iter_track(waypoints, track_id):
+            self._queue(rec, True)
 
     def tick(self, t_ms):
         """Call often (every loop is fine): flushes every `flush_ms`, checks space now and then."""

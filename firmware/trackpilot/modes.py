@@ -93,7 +93,7 @@ class ModeMachine:
 
     def __init__(self, cfg=None):
         cfg = cfg or {}
-        self.gnss_hold_ms = int(cfg.get("gnss_hold_s", 30) * 1000)
+        self.gnss_hold_ms = int(cfg.get("gnss_hold_s", 40) * 1000)
         self.xte_alarm_m = cfg.get("xte_alarm_m", 5.0)
         self.on_arrival = cfg.get("on_arrival", "standby")  # or "hold"
         self.release_motor = cfg.get("motor_release_on_standby", True)
@@ -265,12 +265,14 @@ class ModeMachine:
         else:
             self._log("INFO", "pilot key/mode change while %s: %s" % (MODE_NAMES[self.mode], reason))
 
-    def gnss_quality(self, t_ms, ok, reason="", dr=False):
+    def gnss_quality(self, t_ms, ok, reason="", dr=False, bad_s=None):
         """Once per control epoch (and on a GNSS gap, by timer): is the fix good enough to steer
         by? `dr`: a dead-reckoned position is available (docs/MODES.md "GNSS gaps"). Inside the
         hold time the same AUTO goes on: steering on the dead-reckoned position (or holding
         course without one) at slow RPM, and guidance resumes by itself on a good fix. This is
-        not an engagement: it only continues what a person engaged. Past the hold time: ALARM."""
+        not an engagement: it only continues what a person engaged. Past the hold time: ALARM.
+        bad_s: the gap as the dead reckoner counts it (seconds with the receiver's velocity weigh
+        less); None: the clock since the fix went bad."""
         if ok:
             if self.gnss_bad_since is not None:
                 self.gnss_bad_since = None
@@ -296,7 +298,8 @@ class ModeMachine:
             self.raise_alarm(AL_GNSS, reason)
             return
         if self.mode == AUTO and self.degraded:
-            if ticks_diff(t_ms, self.gnss_bad_since) > self.gnss_hold_ms:
+            bad_ms = ticks_diff(t_ms, self.gnss_bad_since) if bad_s is None else int(bad_s * 1000)
+            if bad_ms > self.gnss_hold_ms:
                 self._set_mode(ALARM, "GNSS bad for more than %d s (%s)" % (self.gnss_hold_ms // 1000, reason), t_ms)
                 self.raise_alarm(AL_GNSS_TIMEOUT, reason)
                 self.pilot = PILOT_HOLD  # the pilot keeps its last course in Auto

@@ -1,14 +1,23 @@
 """NMEA 0183 sentences the boat sends out for chart plotters (OpenCPN listens on UDP 10110).
 
-GGA and RMC (position), HDT (dual-antenna heading) and XTE (cross-track error), built from the Fix
-and the track progress. Latitude and longitude are formatted from the integer 1e-7 deg with integer
-arithmetic, so a single-precision ESP32 sends the same digits as the host.
+GGA and RMC (position), HDT (dual-antenna heading), XTE (cross-track error), and RMB and APB for
+the active leg (origin and destination waypoint names, range and bearing to the destination,
+arrival), built from the Fix and the track progress. Latitude and longitude are formatted from the
+integer 1e-7 deg with integer arithmetic, so a single-precision ESP32 sends the same digits as the
+host.
 
 Usage:
     s = gga(fix)          # b"$GPGGA,...*hh\\r\\n"
     s = xte(progress.xte_m, valid=True)
+    s = route(fix, progress, valid=True, heading_cmd_deg=cmd)   # RMB + APB, b"" without a leg
 """
+import math
+
 from trackpilot.fix import RTK_FIXED, RTK_FLOAT, RTK_SINGLE
+
+M_PER_NM = 1852.0
+KN_PER_MPS = 1.943844
+MAX_SENTENCE = 82  # NMEA 0183 limit, "$" to "\\n"; longer ones are dropped by some listeners
 
 
 def _checksum(body):
@@ -90,5 +99,78 @@ def xte(xte_m, valid=True, talker="II"):
     """XTE: magnitude in nautical miles and the direction to steer (L when we are to starboard)."""
     status = "A" if valid else "V"
     steer = "L" if xte_m > 0 else "R"
-    return sentence("%sXTE,%s,%s,%.4f,%s,N,%s" % (talker, status, status, abs(xte_m) / 1852.0, steer,
-                                                   "A" if valid else "N"))
+    return sentence("%sXTE,%s,%s,%s,%s,N,%s" % (talker, status, status, _xte_nm(xte_m), steer,
+                                                 "A" if valid else "N"))
+
+
+def _xte_nm(xte_m):
+    # 5 decimals of a nautical mile (1.9 cm): a plotter set to metres shows the real deviation
+    return "%.5f" % min(abs(xte_m) / M_PER_NM, 9.99)
+
+
+def wp_id(wp, i, max_len=12):
+    """A waypoint's name as an NMEA field: no field or sentence delimiters, at most max_len
+    characters; WPn (1-based) when the track gives no name."""
+    name = wp.name or ""
+    out = ""
+    for ch in name:
+        o = ord(ch)
+        out += ch if 32 < o < 127 and ch not in ",*$!\\^~" else "_"
+    return (out or "WP%d" % (i + 1))[:max_len]
+
+
+def _lat2(lat_e7):
+    # 4 decimals of a minute (0.19 m) keep RMB within the 82-character limit
+    t, h = lat_text(lat_e7)
+    return t[:-3], h
+
+
+def _lon2(lon_e7):
+    t, h = lon_text(lon_e7)
+    return t[:-3], h
+
+
+def route(fix, prog, valid=True, heading_cmd_deg=None, talker="II"):
+    """RMB and APB (bytes) for the progress' active leg; b"" without a position or a placed leg.
+
+    valid: the pilot steers this leg (AUTO); otherwise both carry status V (a plotter shows the
+    leg but no steering). heading_cmd_deg: the guidance command, sent as APB's heading to steer
+    (default: the bearing to the destination)."""
+    from trackpilot import geo
+
+    if prog is None or not prog.valid or not fix.pos_valid:
+        return b""
+    wps = prog.track.waypoints
+    i = prog.leg
+    if i + 1 >= len(wps):
+        return b""
+    orig, dest = wps[i], wps[i + 1]
+    rng_m, brg_deg = geo.dist_bearing(fix.lat_e7, fix.lon_e7, dest.lat_e7, dest.lon_e7,
+                                      fix.lat_hp, fix.lon_hp)
+    leg = prog.track.legs[i]
+    radius = dest.radius_m if dest.radius_m is not None else getattr(prog, "arrival_radius_m", 0.0)
+    arrived = rng_m <= radius or (prog.finished and prog.finish_reason == "arrived")
+    passed = prog.along_m >= prog.leg_length_m
+    closing_kn = 0.0
+    if fix.vel_valid:
+        closing_kn = fix.sog_mps * KN_PER_MPS * math.cos(math.radians(fix.cog_deg - brg_deg))
+    status = "A" if valid else "V"
+    steer = "L" if prog.xte_m > 0 else "R"
+    la, ns = _lat2(dest.lat_e7)
+    lo, ew = _lon2(dest.lon_e7)
+    tail = ",%s,%s,%s,%s,%.3f,%.1f,%.1f,%s,%s" % (la, ns, lo, ew, min(rng_m / M_PER_NM, 999.999),
+                                                   brg_deg, closing_kn, "A" if arrived else "V",
+                                                   "A" if valid else "N")
+    head = "%sRMB,%s,%s,%s," % (talker, status, _xte_nm(prog.xte_m)[:-1], steer)
+    o_id, d_id = wp_id(orig, i), wp_id(dest, i + 1)
+    while len(head) + len(o_id) + 1 + len(d_id) + len(tail) + 6 > MAX_SENTENCE and len(o_id) > 1:
+        o_id = o_id[:-1]  # keep the destination's name whole as long as possible
+    while len(head) + len(o_id) + 1 + len(d_id) + len(tail) + 6 > MAX_SENTENCE and len(d_id) > 1:
+        d_id = d_id[:-1]
+    rmb = sentence(head + o_id + "," + d_id + tail)
+    hts = heading_cmd_deg if heading_cmd_deg is not None else brg_deg
+    apb = sentence("%sAPB,%s,%s,%s,%s,N,%s,%s,%.1f,T,%s,%.1f,T,%.1f,T,%s" % (
+        talker, status, status, _xte_nm(prog.xte_m), steer, "A" if arrived else "V",
+        "A" if passed else "V", leg.bearing_deg % 360.0, wp_id(dest, i + 1), brg_deg, hts % 360.0,
+        "A" if valid else "N"))
+    return rmb + apb

@@ -76,9 +76,8 @@ class Progress:
 
     def _pos(self, i, lat_e7, lon_e7, lat_hp, lon_hp):
         """(along_m, xte_m, distance to the leg's segment) of the boat on leg i."""
-        trk = self.track
-        e, n = geo.offset_m(trk.lat_e7[i], trk.lon_e7[i], lat_e7, lon_e7, 0, 0, lat_hp, lon_hp)
-        leg = trk.leg(i)
+        leg = self.track.leg(i)
+        e, n = geo.offset_m(leg.lat_e7, leg.lon_e7, lat_e7, lon_e7, 0, 0, lat_hp, lon_hp)
         ux = leg.ux
         uy = leg.uy
         a = e * ux + n * uy

@@ -1,17 +1,24 @@
-"""Tracks: the waypoint CSV format, its parser and validation, and the precomputed legs.
+"""Tracks: the waypoint CSV format, its parser and validation, and the legs derived on demand.
 
-A track is a list of waypoints (lat/lon as ints in 1e-7 deg, parsed from the decimal text
+A track is a sequence of waypoints (lat/lon as ints in 1e-7 deg, parsed from the decimal text
 without a float, and a speed); leg i runs from waypoint i to waypoint i+1 and is sailed at
 waypoint i's speed. The format is documented in tracks/README.md. A file that does not parse
 raises TrackError(line_no, message) and never yields a Track, so the caller keeps the active
 one (parse into a new object, swap only on success).
 
+Compact for the ESP32's ~110 KB heap: the file is read line by line twice (first to count the
+waypoints, refusing more than MAX_WAYPOINTS before anything is allocated for them, then into
+integer arrays sized for them, in pages of 128 so no large block is needed); about 25-31 B per
+waypoint in all (was ~550 B as Waypoint/Leg objects and boxed floats). A leg is computed from its
+two waypoints when asked for; the last few are cached.
+
 Usage:
     from trackpilot import track
-    trk = track.parse_track_csv(open("tracks/middelburg_loop.csv").read())
+    trk, track_id = track.load_file("tracks/middelburg_loop.csv")    # or parse_track_csv(text)
     for w in track.validate(trk, {"turn_radius_m": 9.0}):
         print(w)
-    leg = trk.legs[0]   # leg.length_m, leg.bearing_deg, leg.turn_deg, leg.speed_mps
+    leg = trk.leg(0)   # leg.length_m, leg.bearing_deg, leg.turn_deg, leg.speed_mps, leg.start_m
+    trk.waypoints[3].name, trk.legs[2].turn_deg, len(trk.waypoints)    # sequence views
 """
 import math
 from array import array
@@ -76,6 +83,8 @@ class Leg:
         self.turn_deg = 0.0  # turn at waypoint i+1 into the next leg (+ starboard); 0 on the last
         self.speed_mps = speed_mps
         self.start_m = 0.0  # track distance from waypoint 0 to waypoint i
+        self.lat_e7 = 0  # waypoint i (set by Track.leg)
+        self.lon_e7 = 0
         rad = math.radians(bearing_deg)
         self.ux = math.sin(rad)  # unit vector of the leg in its frame (east, north)
         self.uy = math.cos(rad)
@@ -115,8 +124,13 @@ _PAGE = 1 << _PAGE_SHIFT  # waypoints per page: no block larger than 1 KB is eve
 class _Paged:
     """An int/float array in pages of _PAGE items: loads in a fragmented heap."""
 
-    def __init__(self, code, item_bytes, n):
-        self.pages = [array(code, bytearray(item_bytes * min(_PAGE, n - k))) for k in range(0, n, _PAGE)]
+    def __init__(self, code, item_bytes, n, zeros):
+        """zeros: a bytearray of at least item_bytes * _PAGE zero bytes (one for all pages: no
+        temporary per page to leave holes in the heap)."""
+        self.pages = []
+        for k in range(0, n, _PAGE):
+            m = item_bytes * min(_PAGE, n - k)
+            self.pages.append(array(code, zeros if m == len(zeros) else bytearray(m)))
 
     def __getitem__(self, i):
         return self.pages[i >> _PAGE_SHIFT][i & (_PAGE - 1)]
@@ -134,15 +148,21 @@ class Track:
         """name_bytes: the names' bytes per page (as _survey counts them)."""
         self.name = name
         self.n = 0
-        self.lat_e7 = _Paged("i", 4, n_max)
-        self.lon_e7 = _Paged("i", 4, n_max)
-        self.speed_mmps = _Paged("H", 2, n_max)  # mm/s (at most 8000)
-        self.radius_cm = _Paged("H", 2, n_max)  # 0: none
-        self.line_no = _Paged("H", 2, n_max)
-        self.name_end = _Paged("H", 2, n_max)  # end of waypoint i's name in its page's names
+        # everything allocated here, before the parse, so its garbage cannot split the heap
+        fb = 8 if _FLOAT_CODE == "d" else 4
+        z = bytearray(4 * _PAGE)
+        self.lat_e7 = _Paged("i", 4, n_max, z)
+        self.lon_e7 = _Paged("i", 4, n_max, z)
+        self.start_m = _Paged(_FLOAT_CODE, fb, n_max, z if fb == 4 else bytearray(fb * _PAGE))
+        z = bytearray(2 * _PAGE)
+        self.speed_mmps = _Paged("H", 2, n_max, z)  # mm/s (at most 8000)
+        self.radius_cm = _Paged("H", 2, n_max, z)  # 0: none
+        self.line_no = _Paged("H", 2, n_max, z)
+        self.name_end = _Paged("H", 2, n_max, z)  # end of waypoint i's name in its page's names
+        z = None
         self._names = [bytearray(k) for k in name_bytes]
         self._names_len = 0
-        self.start_m = None  # track distance to each waypoint (floats), set by finish()
+        # start_m: track distance to each waypoint (floats), filled by finish()
         self.length_m = 0.0
         self._cache_i = [-1] * _LEG_CACHE
         self._cache_leg = [None] * _LEG_CACHE
@@ -167,7 +187,6 @@ class Track:
     def finish(self):
         """Track distances of the waypoints; the sequence views."""
         n = self.n
-        self.start_m = _Paged(_FLOAT_CODE, 8 if _FLOAT_CODE == "d" else 4, n)
         s = 0.0
         for i in range(n - 1):
             s += self.leg_length_m(i)
@@ -209,6 +228,8 @@ class Track:
         end_brg = geo.final_bearing_deg(lat[i], lon[i], lat[i + 1], lon[i + 1])
         leg = Leg(i, d, brg, end_brg, self.speed_mps(i))
         leg.start_m = self.start_m[i]
+        leg.lat_e7 = lat[i]  # the start waypoint: the origin of the leg's frame
+        leg.lon_e7 = lon[i]
         if i + 2 < self.n:
             brg_next = geo.dist_bearing(lat[i + 1], lon[i + 1], lat[i + 2], lon[i + 2])[1]
             leg.turn_deg = wrap180(brg_next - end_brg)

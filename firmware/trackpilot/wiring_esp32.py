@@ -2,7 +2,7 @@
 
 Builds the UARTs, the I2C bus, the pins and the watchdog from the `wiring` section of the
 configuration. The simulator's twin is `wiring_sim.py`; the application cannot tell them apart.
-Only this module and boot/main touch `machine`.
+Only this module and boot/main touch `machine`; Wi-Fi's logic is in wifi.py (WifiLink), fed\nthe real `network` module here.
 
 Usage (main.py):
     w = Wiring(cfg)
@@ -66,6 +66,13 @@ class Wiring:
         self.log_dir = data_dir + "/log"
         self.state_path = data_dir + "/state.json"
         self.rand = _seeded_prng()  # StLink's random back-off (needs .randint)
+        self.wifi = None
+        if cfg["wifi"]["enabled"] or cfg["wifi"]["ap_enabled"]:
+            import network
+
+            from trackpilot.wifi import WifiLink
+
+            self.wifi = WifiLink(cfg["wifi"], network)  # started and polled by the app (task_wifi)
         self.hmi = None
         self._build_hmi(cfg)
 
@@ -75,6 +82,10 @@ class Wiring:
         except ImportError:
             return
         self.hmi = BoardHmi(self, cfg)
+
+    def link_up(self):
+        """The Wi-Fi station is connected (UDP and TCP can go out)."""
+        return self.wifi is not None and self.wifi.is_up()
 
     def reset_cause(self):
         return _CAUSES.get(machine.reset_cause(), "unknown")
@@ -105,7 +116,7 @@ class Wiring:
             self.hmi.show(app, t_ms)
 
     def send_status(self, app, t_ms):
-        if self.hmi is not None:
+        if self.hmi is not None and self.link_up():
             self.hmi.send_status(app, t_ms)
         if self.cfg_all["telemetry"]["console"]:
             # for `trackpilot monitor --serial PORT` over the USB console
@@ -118,7 +129,7 @@ class Wiring:
     def send_nmea(self, data):
         """NMEA 0183 for chart plotters (OpenCPN listens on UDP 10110); best effort."""
         w = self.cfg_all["telemetry"]
-        if not w["enabled"]:
+        if not w["enabled"] or not self.link_up():
             return
         try:
             if self._nmea_sock is None:

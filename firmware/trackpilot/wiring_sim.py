@@ -105,10 +105,16 @@ class Wiring:
 
     def send_status(self, app, t_ms):
         try:
-            from tphmi.status import status_from_app, encode_status
+            from tphmi.status import HmiStatus, status_from_app, encode_status
         except ImportError:
             return
-        self.telemetry.write(encode_status(status_from_app(app, t_ms)))
+        st = getattr(self, "_status", None)
+        if st is None:  # one status kept, as the board does: its seq counts, its boat id is set
+            st = self._status = HmiStatus()
+            st.boat_id = app.cfg.get("hmi", {}).get("boat_id", 1)
+        status_from_app(app, t_ms, st)
+        st.seq = (st.seq + 1) & 0xFFFF
+        self.telemetry.write(encode_status(st))
 
     def send_nmea(self, data):
         self.nmea_out.write(data)

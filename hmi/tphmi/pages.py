@@ -38,6 +38,7 @@ PAGE_GNSS = const(1)
 PAGE_PILOT = const(2)
 PAGE_ALARMS = const(3)
 N_PAGES = const(4)
+_WIFI_SHORT = ("", "wf?", "WiFi", "wf-")  # off (not shown), connecting, up, retry
 PAGE_NAMES = ("main", "gnss", "pilot", "alarms")
 
 _RTK_SHORT = ("---", "SGL", "FLT", "FIX")
@@ -234,6 +235,8 @@ class Pages:
         self.title("GNSS", st, t_ms)
         rtk = RTK_NAMES[st.rtk] if 0 <= st.rtk < 4 and st.pos_valid else "no fix"
         self.text("RTK %s" % rtk, 0, 11)
+        if st.wifi:  # Wi-Fi station: the corrections come over it
+            self.text_right(_WIFI_SHORT[st.wifi & 3], 11)
         self.text("SV %2d acc%5.2fm" % (st.num_sv, st.h_acc_m if st.h_acc_m < 99.99 else 99.99), 0, 20)
         if st.heading_valid:
             acc = st.heading_acc_deg if st.heading_acc_deg < 9.9 else 9.9

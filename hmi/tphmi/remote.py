@@ -86,9 +86,10 @@ class RemoteHmi:
 
 # ---------------------------------------------------------------------- asyncio shell
 async def run_remote(remote, sock, boat_addr, buttons, button_pins, show, indicators=None,
-                     indicator_pins=None, ticks_ms=None, poll_ms=20, render_ms=200):
+                     indicator_pins=None, ticks_ms=None, poll_ms=20, render_ms=200, wifi=None):
     """Main loop of the remote box. `sock` is a non-blocking UDP socket bound to the status port;
-    `show()` pushes the framebuffer to the display."""
+    `show()` pushes the framebuffer to the display; `wifi`: a trackpilot.wifi.WifiLink to keep
+    connected (reconnect with back-off; its events go to the console and last_error)."""
     import asyncio
 
     if ticks_ms is None:
@@ -96,6 +97,10 @@ async def run_remote(remote, sock, boat_addr, buttons, button_pins, show, indica
     last_render = ticks_ms()
     while True:
         t = ticks_ms()
+        if wifi is not None:
+            for text in wifi.poll(t):
+                print("wifi:", text)
+                remote.last_error = "wifi: " + text
         while True:  # drain the socket without blocking
             try:
                 data, _ = sock.recvfrom(512)
@@ -165,10 +170,14 @@ def main(config_path="/hmi_remote.json"):  # pragma: no cover - ESP32 only
 
     with open(config_path) as f:
         cfg = json.load(f)
-    network.WLAN(network.AP_IF).active(False)  # never an open access point
-    sta = network.WLAN(network.STA_IF)
-    sta.active(True)
-    sta.connect(cfg["wifi_ssid"], cfg["wifi_password"])
+    from trackpilot.wifi import WifiLink
+
+    # station with reconnect and back-off; the access point is switched off (never an open one)
+    link = WifiLink({"enabled": True, "ssid": cfg["wifi_ssid"], "password": cfg["wifi_password"],
+                     "ap_enabled": False, "ap_ssid": "", "ap_password": "", "connect_timeout_ms": 15000,
+                     "backoff_min_ms": 2000, "backoff_max_ms": 30000}, network)
+    for text in link.start(time.ticks_ms()):
+        print("wifi:", text)
     with open(cfg.get("key_file", "/hmi.key"), "rb") as f:
         key = f.read()
     signer = CommandSigner(key, cfg["boat_id"], FileStore(cfg.get("counter_file", "/auth_tx.bin")))
@@ -179,7 +188,8 @@ def main(config_path="/hmi_remote.json"):  # pragma: no cover - ESP32 only
     pins = [Pin(p, Pin.IN, Pin.PULL_UP) if p is not None else None for p in w["buttons"]]
     sock = udp_socket(cfg.get("status_port", 10111))
     boat = socket_addr(cfg["boat_host"], cfg.get("command_port", 10112))
-    asyncio.run(run_remote(remote, sock, boat, Buttons(), ButtonPins(pins), oled.show, ticks_ms=time.ticks_ms))
+    asyncio.run(run_remote(remote, sock, boat, Buttons(), ButtonPins(pins), oled.show, ticks_ms=time.ticks_ms,
+                           wifi=link))
 
 
 def socket_addr(host, port):

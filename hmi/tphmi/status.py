@@ -35,6 +35,9 @@ PM_CAL = const(4)
 PM_UNKNOWN = const(5)
 PILOT_MODE_NAMES = ("standby", "auto", "wind", "track", "calibration", "unknown")
 
+# Wi-Fi station state (same numbers as trackpilot.wifi): flags2 bits 1-2; bit 3 access point on.
+WIFI_NAMES = ("off", "connecting", "up", "retry")
+
 # Alarm bits (same as trackpilot.modes.AL_*), short names for the 16-column display.
 ALARM_BITS = (
     (1, "takeover"),
@@ -104,6 +107,9 @@ FIELDS = (
     ("locked_deg", 0.0),  # the pilot's locked course
     ("keystrokes", 0),  # course keystrokes sent since boot
     ("hang_recoveries", 0),  # Standby-Auto recoveries since boot
+    # Wi-Fi (trackpilot.wifi): station state and access point
+    ("wifi", 0),  # 0 off, 1 connecting, 2 up, 3 retry (WIFI_NAMES)
+    ("wifi_ap", False),  # the access point is on
     # environment and power (the datagram's trailer)
     ("wind_angle_deg", -1.0),  # apparent wind angle from the bow, 0..360, -1 unknown
     ("wind_speed_mps", -1.0),  # apparent wind speed, -1 unknown
@@ -190,7 +196,7 @@ def encode_status(st):
         st.seq & 0xFFFF,
         _clamp(st.mode, 0, 255),
         st.flags(),
-        (1 if st.pilot_ok else 0),
+        (1 if st.pilot_ok else 0) | ((st.wifi & 3) << 1) | (8 if st.wifi_ap else 0),
         _clamp(st.rtk, 0, 255),
         st.alarms & 0xFFFF,
         st.sounding & 0xFFFF,
@@ -267,6 +273,8 @@ def decode_status(pkt, st=None):
     st.cmd_valid = bool(flags & 64)
     st.nav_valid = bool(flags & 128)
     st.pilot_ok = bool(flags2 & 1)
+    st.wifi = (flags2 >> 1) & 3
+    st.wifi_ap = bool(flags2 & 8)
     st.wind_angle_deg = -1.0 if trailer[0] == 65535 else trailer[0] / 10.0
     st.wind_speed_mps = -1.0 if trailer[1] == 65535 else trailer[1] / 100.0
     st.battery_v = -1.0 if trailer[2] == 65535 else trailer[2] / 100.0
@@ -336,6 +344,9 @@ def status_from_app(app, t_ms, st=None):
         st.heading_deg = fix.heading_deg
         st.heading_acc_deg = fix.heading_acc_deg
         st.sog_mps = fix.sog_mps if fix.vel_valid else 0.0
+    link = getattr(w, "wifi", None) if w is not None else None
+    st.wifi = link.state if link is not None else 0
+    st.wifi_ap = bool(link.ap_active) if link is not None else False
     age = w.correction_age_s(t_ms) if w is not None and hasattr(w, "correction_age_s") else None
     st.corr_age_s = -1.0 if age is None else float(age)
     prog = getattr(app, "progress", None)

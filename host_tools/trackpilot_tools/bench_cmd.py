@@ -7,15 +7,15 @@ OUT/report.json, plus the per-run folders.
 - Compute and memory, unix-port figures (bench_perf.py).
 - The fault matrix (bench_faults.py).
 
-At most `--jobs` (default 2) worker processes; a run whose firmware stops answering is killed after
+On Dask distributed (a LocalCluster of `--jobs` worker processes, default 2, or `--scheduler`); a run whose firmware stops answering is killed after
 `--run-timeout` wall seconds and counted as a failure."""
 import json
 import math
 import os
 import statistics
+import sys
 import time
 from collections import deque
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from pathlib import Path
 
 from . import bench_faults, bench_perf
@@ -542,6 +542,7 @@ def perf_section(perf):
              _f((perf.get("sim_speed_alone") or {}).get("sim_s"), "%.0f"), _f((perf.get("sim_speed_alone") or {}).get("wall_s"), "%.1f"),
              _f(mi.get("sim_speed_x"), "%.0f"), _f(mi.get("wall_s"), "%.1f"),
              _f(mi.get("steps"), "%d"), _f(perf.get("accuracy_sim_speed_mean"), "%.0f"))]
+    L += bench_perf.frozen_heap_lines(perf.get("frozen_heap"))
     ps = perf.get("parser") or {}
     L.append("- **GNSS parser throughput** on one recorded stream (the simulator's F9P, %s epochs of UBX "
              "NAV-RELPOSNED/HPPOSLLH/PVT + NMEA GGA/RMC, %s B; best of 3): trackpilot.gnss under the unix port "
@@ -618,7 +619,22 @@ def _esp32_equiv(perf):
     return lo
 
 
+class _Submitter:
+    """submit(fn, job) on a Dask client: one task per job, never cached (pure=False), retried once
+    if it raises (a worker that dies has its task rescheduled by the scheduler)."""
+
+    def __init__(self, client):
+        self.client = client
+
+    def submit(self, fn, job):
+        return self.client.submit(fn, job, pure=False, retries=1)
+
+
 def run(args):
+    """The benchmark into a fresh temporary folder, renamed to --out when it has finished (an
+    interrupted run leaves OUT.partial/ and the older OUT untouched; outdir.py)."""
+    from .outdir import fresh_output
+
     if args.robust is not None or args.robust_one is not None:
         from . import bench_robust
 
@@ -626,13 +642,36 @@ def run(args):
             print("--robust N: N >= 1 boats")
             return 2
         return bench_robust.run(args)
+
+    final = Path(args.out).resolve()
+    try:
+        with fresh_output(final) as tmp:
+            head, wall = _run(args, tmp)
+            _repoint(tmp, final)
+    except KeyboardInterrupt:
+        print("\ninterrupted: the partial output is in %s.partial/ (see PARTIAL.txt there); "
+              "%s/ is unchanged" % (final, final), file=sys.stderr)
+        raise
+    print(head)
+    print("report: %s, %s (wall %.0f s)" % (final / "report.md", final / "report.json", wall))
+    return 0
+
+
+def _repoint(tmp, final):
+    """The report names its files by absolute path: point them at the final folder."""
+    for p in list(tmp.rglob("*.md")) + list(tmp.rglob("*.json")) + list(tmp.rglob("*.csv")):
+        text = p.read_text()
+        if str(tmp) in text:
+            p.write_text(text.replace(str(tmp), str(final)))
+
+
+def _run(args, out):
     from .sim import benchtracks as bt
     from .sim import scenarios
 
     t_start = time.perf_counter()
     quick = args.quick
     seeds = args.seeds or (1 if quick else 3)
-    out = Path(args.out).resolve()
     (out / "tracks").mkdir(parents=True, exist_ok=True)
 
     def log(msg):
@@ -681,6 +720,13 @@ def run(args):
                       {"track": mission, "out": str(pdir / "mission"), "wrapper": wrap_prof, "heap": None,
                        "timeout": 900}))
         queue.append(("misc", _misc_perf, (str(pdir), str(lib), mission, str(stream), not quick)))
+        if quick:
+            perf["frozen_heap"] = {"skipped": "not with --quick (it builds the frozen interpreter)"}
+        else:
+            queue.append(("frozen", bench_perf.frozen_heap,
+                          {"out": str(pdir / "frozen"), "heaps": [110 * 1024, 256 * 1024], "timeout": 900,
+                           "tracks": [("tracks/middelburg_loop.csv", str(bench_perf.ROOT / "tracks" / "middelburg_loop.csv")),
+                                      ("mission", mission)]}))
     for j in fjobs:
         queue.append(("fault", bench_faults.run_fault, j))
     for j in acc:
@@ -692,7 +738,13 @@ def run(args):
     resolution = 32768 if quick else 8192
     results, faults, mission_runs = [], [], 0
     inflight = {}
-    with ProcessPoolExecutor(max_workers=args.jobs) as ex:
+    from dask.distributed import wait
+
+    from .bench_robust import dask_client
+
+    client, cluster = dask_client(args.scheduler, args.jobs)
+    ex = _Submitter(client)
+    try:
         while queue or inflight or (bis is not None and not bis.done):
             while len(inflight) < args.jobs:
                 h = bis.next() if bis is not None else None
@@ -708,7 +760,7 @@ def run(args):
                 break
             if not inflight:
                 break
-            done, _ = wait(list(inflight), return_when=FIRST_COMPLETED)
+            done, _ = wait(list(inflight), return_when="FIRST_COMPLETED")
             for fut in done:
                 tag, job = inflight.pop(fut)
                 try:
@@ -749,6 +801,12 @@ def run(args):
                     log("heap %d B: %s" % (job, "ok" if res.get("ok") else "fails (%s)" % res.get("stop")))
                 elif tag == "misc":
                     perf.update(res)
+                elif tag == "frozen":
+                    perf["frozen_heap"] = res
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
     if not args.no_perf:  # simulation speed of one run alone (nothing else running): the example track
         from .mpy import ROOT
         from .sim.runner import SimRun
@@ -799,6 +857,4 @@ def run(args):
             "date": time.strftime("%Y-%m-%d %H:%M"), "laws": args.laws, "left_out": left_out}
     write_report(out, rows, results, ratio, perf, faults, meta)
     text = (out / "report.md").read_text()
-    print(text.split("\n## Goals")[0])
-    print("report: %s, %s (wall %.0f s)" % (out / "report.md", out / "report.json", wall))
-    return 0
+    return text.split("\n## Goals")[0], wall

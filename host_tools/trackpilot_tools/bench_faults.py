@@ -36,12 +36,17 @@ STANDBY, AUTO, ALARM, ESTOP = 0, 1, 2, 3
 SPEC = {
     "rtk_float": (20.0, "keeps steering on RTK float (modes.steer_min_rtk = float): stays AUTO, guidance on, "
                         "no GNSS alarm", "keep"),
-    "rtk_single": (20.0, "AUTO(degraded) + gnss alarm at once (holds course, slow RPM); beyond "
-                         "modes.gnss_hold_s (10 s) ALARM + gnss_timeout", "gnss_timeout"),
-    "heading_loss": (6.0, "AUTO(degraded) + gnss alarm, course held without new steps; guidance resumes "
-                          "when the heading is back (within gnss_hold_s)", "degraded"),
-    "gnss_dropout": (6.0, "AUTO(degraded) once stale (modes.gnss_stale_ms, 1 s), course held; guidance "
-                          "resumes on RTK float/fixed within gnss_hold_s, else ALARM + gnss_timeout", "degraded"),
+    "rtk_single": (20.0, "AUTO(dead-reckoning) + gnss alarm at once: steers on the dead-reckoned position "
+                         "(the receiver's velocity, compass heading) at slow RPM; single seconds count 1/4 of "
+                         "modes.gnss_hold_s (40 s), so guidance resumes by itself when RTK is back",
+                   "degraded"),
+    "heading_loss": (6.0, "AUTO(dead-reckoning) + gnss alarm: the RTK position with the compass heading; "
+                          "guidance resumes when the heading is back (within gnss_hold_s)", "degraded"),
+    "gnss_dropout": (6.0, "AUTO(dead-reckoning) within 0.5 s (gap timer), slow RPM, steered on the "
+                          "dead-reckoned position; guidance resumes on RTK float/fixed within gnss_hold_s, "
+                          "else ALARM + gnss_timeout", "degraded"),
+    "compass_bend": (20.0, "the pilot's compass bent 6 deg: the learnt compass offset and the GNSS heading "
+                           "keep the guidance on: stays AUTO, guidance on, no alarm", "keep"),
     "pilot_hang_steer": (None, "hang detected (pilot_hang alarm, AUTO(recovering)), Standby then Auto clears "
                                "it, guidance resumes", "hang"),
     "pilot_hang_keys": (None, "hang detected (pilot_hang alarm, AUTO(recovering)), Standby then Auto clears "
@@ -100,7 +105,9 @@ CASES = {
         "expected": "misspelled key: config alarm at boot, every ENGAGE refused until a person's ACK, then "
                     "AUTO on the defaults"},
     "alarm_no_recovery": {
-        "faults": ["gnss_dropout@%g:60" % (T_FAULT - 20), "pilot_silent@%g:6" % T_FAULT], "config": None,
+        # a 10 s GNSS hold (the default is 40 s of dead reckoning) so the pilot falls silent in ALARM
+        "faults": ["gnss_dropout@%g:60" % (T_FAULT - 20), "pilot_silent@%g:6" % T_FAULT],
+        "config": b'{"modes": {"gnss_hold_s": 10}}',
         "track": None, "scenario": "current", "end_s": T_FAULT + 40,
         "expected": "in ALARM (GNSS gone beyond the hold time) a silent pilot is not recovered: no keys, "
                     "the pilot stays in Auto on its course"},
@@ -285,14 +292,16 @@ def evaluate(name, dur, ctl, evs, res, r):
         fault_bits = AL["gnss"] | AL["gnss_timeout"]
         detect = _first(after, lambda c: c.alarms & AL["gnss"], F)
         # no control record is written while no epoch arrives (dropout): the mode event counts too
-        ev = _first(evs, lambda e: (e.kind == "MODE" and "degraded" in e.text)
+        ev = _first(evs, lambda e: (e.kind == "MODE" and ("degraded" in e.text or "dead-reckoning" in e.text))
                     or (e.kind == "ALARM" and "gnss" in e.text.lower()), F)
         if ev is not None and (detect is None or ev < detect):
             detect = ev
-        blind = [c for c in after if detect is not None and detect <= c.t_sim <= E and c.guided]
+        # guided on an untrusted GNSS fix (dead-reckoned steps are logged with rtk 0, "none")
+        blind = [c for c in after if detect is not None and detect <= c.t_sim <= E and c.guided
+                 and c.rtk != 0]
         if kind == "gnss_timeout":
             to = _first(after, lambda c: c.alarms & AL["gnss_timeout"] or c.mode == ALARM, F)
-            ok = detect is not None and detect - F <= 1.5 and to is not None and abs(to - F - 10.0) <= 2.0
+            ok = detect is not None and detect - F <= 1.5 and to is not None and abs(to - F - 40.0) <= 2.0
             note = "ALARM/gnss_timeout at +%.1f s" % (to - F) if to is not None else "no gnss_timeout"
         else:
             ok = detect is not None and detect - F <= 1.5 and not blind

@@ -23,7 +23,8 @@ TURN_CASES = ("zigzag_60", "uturn_20m", "lawnmower")
 
 
 def _straight_len(v):
-    return 60.0 + 40.0 * v
+    """200 m as `trackpilot bench`'s straights, at least 100 s of sailing (settling, then a measure)."""
+    return max(200.0, 100.0 * v)
 
 
 # case name -> (track maker name, args, sim overrides, faults, kind)
@@ -69,13 +70,21 @@ def sim_params(case, boat_seed):
     return p, flat
 
 
+NOMINAL_SEEDS = 3  # the nominal boat's noise seeds (its reference figures are their mean)
+
+
 def job_name(job):
-    return "%s_%s_b%d" % (job["case"], job["law"], job["boat"])
+    extra = "_s%d" % job["seed"] if job.get("seed", 1) != 1 else ""
+    return "%s_%s_b%d%s" % (job["case"], job["law"], job["boat"], extra)
 
 
 def rerun_command(job):
-    return "trackpilot bench --robust-one %d --case %s --law %s --out robust_%s" % (
-        job["boat"], job["case"], job["law"], job_name(job))
+    sets = []
+    for sec, body in sorted((job.get("fw") or {}).items()):
+        for k, v in sorted(body.items()):
+            sets.append(" --fw-set %s.%s=%s" % (sec, k, json.dumps(v)))
+    return "trackpilot bench --robust-one %d --case %s --laws %s%s --out robust_%s" % (
+        job["boat"], job["case"], job["law"], "".join(sets), job_name(job))
 
 
 # ---------------------------------------------------------------------- metrics
@@ -202,12 +211,16 @@ def run_job(job):
         base.mkdir(parents=True, exist_ok=True)
         track = _write_track(case, str(base / "track.csv"))
         p, flat = sim_params(case, job["boat"])
-        r = SimRun(track, base / "run", seed=job["boat"] if job["boat"] else 1, law=job["law"], params=p,
+        r = SimRun(track, base / "run", seed=job["boat"] if job["boat"] else job.get("seed", 1), law=job["law"], params=p,
                    faults=faults, fw_config=job.get("fw"))
         dog = bench_perf.watchdog(r, job.get("timeout", 300.0))
         res = r.run()
         dog.cancel()
         m = analyse(res, kind)
+        if kind == "line":  # can this boat's pilot hold a course by itself at this speed?
+            v = case_table()[case][1][0]
+            m["pilot_alone_pp_deg"] = pilot_alone(p, v, step_deg=10.0)
+            m["pilot_alone_40_pp_deg"] = pilot_alone(p, v, step_deg=40.0)
         if dog.fired:
             m["failure"], m["why"] = True, "firmware stopped answering (killed: %s)" % dog.fired
         return {"job": job, "params": flat, "metrics": m}
@@ -217,22 +230,32 @@ def run_job(job):
 
 
 # ---------------------------------------------------------------------- the engine: Dask distributed
+def dask_client(scheduler=None, workers=2):
+    """(client, cluster or None): a running scheduler's address, or a LocalCluster of `workers`
+    single-threaded worker processes (each run is a firmware process: one per core)."""
+    import logging
+
+    from dask.distributed import Client, LocalCluster
+
+    if scheduler:
+        try:
+            return Client(scheduler, timeout="20s"), None
+        except (OSError, TimeoutError, ValueError) as e:  # an ordinary mistake: no traceback
+            raise SystemExit("cannot reach the Dask scheduler at %s: %s (start it with `dask scheduler`, "
+                             "workers with `dask worker %s`)" % (scheduler, e, scheduler))
+    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+                           silence_logs=logging.ERROR)
+    return Client(cluster), cluster
+
+
 def run_on_dask(jobs, fn, scheduler=None, workers=2, progress=None, retries=2):
     """Submit every job; yield (job, result) as they finish. A task that raises is retried
     `retries` times; a task whose worker dies is rescheduled by the scheduler (up to its
     allowed-failures). scheduler: "tcp://HOST:8786" or None for a LocalCluster of `workers`
     single-threaded worker processes."""
-    import logging
+    from dask.distributed import as_completed
 
-    from dask.distributed import Client, LocalCluster, as_completed
-
-    cluster = None
-    if scheduler:
-        client = Client(scheduler, timeout="30s")
-    else:
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
-                               silence_logs=logging.ERROR)
-        client = Client(cluster)
+    client, cluster = dask_client(scheduler, workers)
     try:
         byfut = {}
         for j in jobs:
@@ -294,6 +317,7 @@ def summarise(results):
     out = {}
     for (case, law), rs in sorted(table.items()):
         d = {"runs": len(rs), "failures": sum(1 for r in rs if r["metrics"].get("failure")),
+             "pilot_cannot_hold": sum(1 for r in rs if not pilot_holds(r)),
              "oscillating": sum(1 for r in rs if (r["metrics"].get("osc") or {}).get("oscillates"))}
         for metric, w in (("settled_rms_m", "max"), ("settled_max_m", "max"), ("max_m", "max"),
                           ("within_1p5_pct", "min"), ("keys_per_km", "max")):
@@ -302,9 +326,24 @@ def summarise(results):
     return out
 
 
-def goals(results, law="los"):
-    """The issue's goals for one law: [(goal, figure, met)]."""
-    res = [r for r in results if r["job"]["law"] == law and r["job"]["boat"] != 0]
+PILOT_HOLDS_PP_DEG = 5.0
+
+
+def pilot_holds(r):
+    """The boat's pilot alone holds a fixed course at the case's speed: after a 10 deg and after a
+    40 deg course step its heading swings less than PILOT_HOLDS_PP_DEG peak to peak over the last
+    60 s (pilot_alone). A pilot that limit-cycles by itself needs its own gain turned down; no
+    keystroke law can steer it straight."""
+    m = r["metrics"]
+    a, b = m.get("pilot_alone_pp_deg"), m.get("pilot_alone_40_pp_deg")
+    return a is None or (a < PILOT_HOLDS_PP_DEG and b < PILOT_HOLDS_PP_DEG)
+
+
+def goals(results, law="los", only_holding=False):
+    """The issue's goals for one law: [(goal, figure, met)]. only_holding: over the boats whose
+    pilot holds a course by itself (pilot_holds)."""
+    res = [r for r in results if r["job"]["law"] == law and r["job"]["boat"] != 0
+           and (not only_holding or pilot_holds(r))]
     nom = [r for r in results if r["job"]["law"] == law and r["job"]["boat"] == 0]
     out = []
     st = [r for r in res if goal_straight(r)]
@@ -312,7 +351,7 @@ def goals(results, law="los"):
     d = distribution(st, "settled_rms_m")
     if d:
         fails = sum(1 for r in st if r["metrics"].get("failure"))
-        out.append(("straights 1-3 m/s, current <= 0.3 m/s: median RMS |XTE| after settling <= 0.15 m",
+        out.append(("straights 1-3 m/s, current <= 0.3 m/s: median RMS XTE after settling <= 0.15 m",
                     "%.3f m over %d runs (%d boats), %d failed" % (d["median"], d["n"], boats, fails),
                     d["median"] <= 0.15 and not fails))
         out.append(("... p90 <= 0.25 m", "%.3f m" % d["p90"], d["p90"] <= 0.25))
@@ -337,6 +376,24 @@ def goals(results, law="los"):
             out.append(("%s: p90 of time within +-1.5 m >= 95 %%" % case,
                         "%.1f %% (median %.1f %%, worst %.1f %% boat %d) over %d boats" % (
                             d["p90"], d["median"], d["worst"], d["worst_boat"], d["n"]), d["p90"] >= 95.0))
+    return out
+
+
+def nominal_table(results):
+    """The nominal boat per case and law: mean over its noise seeds of the settled RMS, max |xte|,
+    within 1.5 m and keystrokes per km."""
+    t = {}
+    for r in results:
+        if r["job"]["boat"] == 0:
+            t.setdefault("%s/%s" % (r["job"]["case"], r["job"]["law"]), []).append(r["metrics"])
+    out = {}
+    for k, ms in sorted(t.items()):
+        row = {"seeds": len(ms)}
+        for key in ("settled_rms_m", "settled_max_m", "max_m", "within_1p5_pct", "keys_per_km"):
+            v = [m[key] for m in ms if m.get(key) is not None]
+            row[key] = round(statistics.mean(v), 3) if v else None
+        row["oscillating"] = sum(1 for m in ms if (m.get("osc") or {}).get("oscillates"))
+        out[k] = row
     return out
 
 
@@ -380,6 +437,7 @@ def plots(results, out):
     ax.axvline(0.15, color="k", ls="--", lw=0.8)
     ax.set_xlabel("RMS |XTE| after settling, straights 1-3 m/s (m)")
     ax.set_ylabel("runs")
+    ax.set_title("%d runs" % len(st), fontsize=9)
     ax.legend()
     fig.tight_layout()
     fig.savefig(out / "robust_straight_rms_hist.png", dpi=90)
@@ -408,7 +466,8 @@ def make_jobs(n, cases, laws, seed0=1, quick=False, timeout=300.0, fw=None):
     jobs = []
     for law in laws:
         for case in cases:
-            jobs.append({"case": case, "law": law, "boat": 0, "timeout": timeout, "fw": fw})
+            for seed in range(1, NOMINAL_SEEDS + 1):
+                jobs.append({"case": case, "law": law, "boat": 0, "seed": seed, "timeout": timeout, "fw": fw})
         for b in range(seed0, seed0 + n):
             bc = ["straight_%.1f" % GOAL_SPEEDS[b % 3]] if quick else cases
             for case in bc:
@@ -452,7 +511,7 @@ def run(args):
     fw = fw_overrides(args.fw_set)
     jobs = make_jobs(args.robust, cases, laws, args.robust_seed, quick, args.run_timeout, fw)
     where = args.scheduler or "LocalCluster, %d workers" % args.jobs
-    print("robust bench: %d boats x %s x %s = %d runs (+ nominal) on %s" % (
+    print("robust bench: %d boats x %s x %s + the nominal boat: %d runs on %s" % (
         args.robust, "1 straight (quick)" if quick else "%d cases" % len(cases), "/".join(laws), len(jobs), where),
         flush=True)
     results = []
@@ -473,7 +532,10 @@ def run(args):
     results.sort(key=lambda r: (r["job"]["case"], r["job"]["law"], r["job"]["boat"]))
     summ = summarise(results)
     goal = {law: goals(results, law) for law in laws}
+    for law in laws:
+        goal[law + ", boats whose pilot holds a course alone"] = goals(results, law, only_holding=True)
     rank = plots(results, out)
+    summ["nominal"] = nominal_table(results)
     cores = os.cpu_count() or 1
     meta = {"boats": args.robust, "fw_set": args.fw_set or [], "seed0": args.robust_seed, "cases": cases, "laws": laws, "quick": quick,
             "runs": len(results), "wall_s": round(wall, 1), "engine": where, "cores": cores,
@@ -505,19 +567,65 @@ def report_md(meta, summ, goal, rank):
         L += ["| %s | %s | %s |" % (a, b, "met" if ok else "**not met**") for a, b, ok in g]
         L.append("")
     L += ["## Distributions", "",
-          "| case / law | runs | failed | oscillating | settled RMS median / p90 / worst | max |XTE| median / p90 / "
+          "| case / law | runs | failed | oscillating | pilot alone cannot hold | settled RMS median / p90 / worst | max abs XTE median / p90 / "
           "worst | within 1.5 m % median / p10 / worst | keys/km median / p90 | worst RMS: rerun |",
-          "|---|---|---|---|---|---|---|---|---|"]
+          "|---|---|---|---|---|---|---|---|---|---|"]
     for k, d in summ.items():
+        if k == "nominal":
+            continue
         s, m, w, kk = d["settled_rms_m"], d["max_m"], d["within_1p5_pct"], d["keys_per_km"]
         tri = lambda x, f="%.3f": "-" if not x else "%s / %s / %s" % (f % x["median"], f % x["p90"], f % x["worst"])  # noqa: E731
-        L.append("| %s | %d | %d | %d | %s | %s | %s | %s | %s |" % (
-            k, d["runs"], d["failures"], d["oscillating"], tri(s), tri(m), tri(w, "%.1f"),
+        L.append("| %s | %d | %d | %d | %d | %s | %s | %s | %s | %s |" % (
+            k, d["runs"], d["failures"], d["oscillating"], d["pilot_cannot_hold"], tri(s), tri(m), tri(w, "%.1f"),
             "-" if not kk else "%.0f / %.0f" % (kk["median"], kk["p90"]),
             "-" if not s else "`%s`" % s["rerun"]))
+    L.append("")
+    L += ["## The nominal boat (no spread; mean over %d noise seeds)" % NOMINAL_SEEDS, "",
+          "| case / law | settled RMS | settled max | max abs XTE | within 1.5 m % | keys/km | oscillating |",
+          "|---|---|---|---|---|---|---|"]
+    for k, r in summ.get("nominal", {}).items():
+        L.append("| %s | %s | %s | %s | %s | %s | %d |" % (k, _f(r["settled_rms_m"]), _f(r["settled_max_m"]), _f(r["max_m"]),
+                                                        _f(r["within_1p5_pct"], "%.1f"), _f(r["keys_per_km"], "%.0f"),
+                                                        r["oscillating"]))
     L.append("")
     if rank:
         L += ["## What matters most (straights, Spearman rank correlation with the RMS)", "",
               ", ".join("%s %+.2f" % (n, r) for n, r in rank[:8]), "",
               "![hist](robust_straight_rms_hist.png) ![params](robust_straight_rms_vs_params.png)", ""]
     return "\n".join(L) + "\n"
+
+
+# ---------------------------------------------------------------------- the pilot alone
+class _NoBus:
+    retry_limit = 0
+
+    def add_receiver(self, *a):
+        pass
+
+
+def pilot_alone(p, speed_mps, seconds=150.0, step_deg=10.0):
+    """The drawn ST2000+ holding a fixed course on the drawn boat, without the firmware: after a
+    step_deg course change at t = 0, the heading's peak-to-peak swing over the last 60 s (deg).
+    A pilot that cannot hold a course by itself (a swing of several degrees) limits any outer law:
+    the report counts such boats."""
+    from .sim import stcodec
+    from .sim.boat import Boat, Environment
+    from .sim.randproc import component_rng
+    from .sim.st2000_sim import ST2000Sim
+
+    env = Environment(p["water"], p["wind"], component_rng(1, "environment"))
+    scale = p["boat"].get("speed_map_scale", 1.0)
+    rpm = speed_mps / scale * 400.0
+    boat = Boat(p["boat"], env, 0.0, 0.0, 0.0, u_mps=speed_mps / 1.0, rpm=rpm)
+    pil = ST2000Sim(p["pilot"], component_rng(1, "pilot"), None, _NoBus())
+    pil.mode = stcodec.MODE_AUTO
+    pil.course_deg = step_deg + p["pilot"]["compass_offset_deg"]
+    dt = 0.05
+    hs = []
+    n = int(seconds / dt)
+    for k in range(n):
+        rud = pil.control_step(dt, boat.heading_deg())
+        boat.step(dt, rud, rpm)
+        if k * dt >= seconds - 60.0:
+            hs.append(((boat.psi_deg + 180.0) % 360.0) - 180.0)
+    return round(max(hs) - min(hs), 2)

@@ -19,6 +19,7 @@ COMMANDS = [
     ("deploy", "trackpilot_tools.device_cmd", "install the firmware on an ESP32"),
     ("upload", "trackpilot_tools.upload_cmd", "put a track on a running board (maintenance state, verified)"),
     ("pull", "trackpilot_tools.pull_cmd", "fetch the board's logs, resumably and verified"),
+    ("board-sim", "trackpilot_tools.boardsim_cmd", "a unix-port board on a pseudo-terminal to try upload/pull/deploy"),
 ]
 
 

@@ -132,6 +132,14 @@ def status_from_log(paths, at_s=None):
 
 def cmd_preview(args):
     status = None
+    if args.sample:
+        sys.path.insert(0, str(HMI_DIR))
+        from tphmi.samples import SAMPLES
+
+        if args.sample not in SAMPLES:
+            print("trackpilot hmi preview: no sample %r; samples: %s" % (args.sample, ", ".join(SAMPLES)),
+                  file=sys.stderr)
+            return 2
     try:
         if args.status:
             status = json.loads(Path(args.status).read_text())

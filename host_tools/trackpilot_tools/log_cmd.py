@@ -5,9 +5,10 @@ Usage:
     trackpilot log plot log/0003-*.tpl --out plots/
 """
 import json
+import os
 import sys
 
-from trackpilot_tools.logdecode import LogError, decode_files, summarize, write_csv
+from trackpilot_tools.logdecode import LogError, decode_files, summarize, write_csv, write_events_csv
 
 
 def add_parser(p):
@@ -15,7 +16,8 @@ def add_parser(p):
     sub.required = True
     d = sub.add_parser("decode", help="decode logs: headers, summary, damage; optional CSV")
     d.add_argument("files", nargs="+", metavar="FILE", help="log files (.tpl) of one run")
-    d.add_argument("--csv", metavar="OUT", help="write the control records to this CSV file")
+    d.add_argument("--csv", metavar="OUT", help="write the control records to this CSV file, and the "
+                   "events to OUT_events.csv beside it")
     d.add_argument("--events", action="store_true", help="list every event")
     d.add_argument("--json", action="store_true", help="print the summary as JSON only")
     d.set_defaults(func=cmd_decode)
@@ -56,7 +58,20 @@ def cmd_decode(args):
     if args.csv:
         n = write_csv(d, args.csv)
         print("wrote %d rows to %s" % (n, args.csv), file=sys.stderr)
+        ev = events_csv_path(args.csv)
+        n = write_events_csv(d, ev)
+        print("wrote %d events to %s" % (n, ev), file=sys.stderr)
+    if d.damage:
+        lost = d.lost_control
+        print("trackpilot log: the log is damaged: %d report(s), %d control records lost; the records "
+              "around them are decoded (see the 'damage' lines)" % (len(d.damage), lost), file=sys.stderr)
     return 0
+
+
+def events_csv_path(csv_path):
+    """run.csv -> run_events.csv (beside it)."""
+    root, ext = os.path.splitext(csv_path)
+    return root + "_events" + (ext or ".csv")
 
 
 def cmd_plot(args):

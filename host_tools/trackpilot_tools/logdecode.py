@@ -26,6 +26,10 @@ try:  # names for modes and alarm bits (the lead's module); numbers only if it i
 except ImportError:  # pragma: no cover
     ALARM_NAMES = ()
     MODE_NAMES = ()
+try:
+    from trackpilot.seatalk import MODE_NAMES as PILOT_MODE_NAMES  # noqa: E402
+except ImportError:  # pragma: no cover
+    PILOT_MODE_NAMES = ()
 
 AUTO = 1  # modes.AUTO
 _M_PER_DEG = 6371008.8 * math.pi / 180.0  # mean Earth radius: only for plots and distance sums
@@ -122,21 +126,77 @@ def lat_lon_deg_text(e7, hp):
     return "%s%d.%09d" % (sign, v // 1000000000, v % 1000000000)
 
 
+RTK_NAMES = ("none", "single", "float", "fixed")  # the control record's 2-bit rtk code
+
+
+def pilot_mode_name(code):
+    return PILOT_MODE_NAMES[code] if 0 <= code < len(PILOT_MODE_NAMES) else str(code)
+
+
+def header_utc(h):
+    """The UTC datetime a header records for its t0_ms, or None (the boat often boots before a fix)."""
+    import datetime
+
+    text = (h.get("utc") or "").strip()
+    if not text:
+        return None
+    try:
+        dt = datetime.datetime.fromisoformat(text.replace("Z", "+00:00"))
+    except ValueError:
+        return None
+    return dt if dt.tzinfo else dt.replace(tzinfo=datetime.timezone.utc)
+
+
+def utc_of(d, rec):
+    """ISO UTC of a control or event record where the header of its file gives UTC, else ''."""
+    import datetime
+
+    for h in d.headers:
+        if h.file == rec.file:
+            base = header_utc(h)
+            if base is None:
+                return ""
+            try:
+                t0 = int(h.get("t0_ms") or 0)
+            except ValueError:
+                return ""
+            dt = base + datetime.timedelta(milliseconds=ticks_diff(rec.t_ms, t0))
+            return dt.strftime("%Y-%m-%dT%H:%M:%S.") + "%03dZ" % (dt.microsecond // 1000)
+    return ""
+
+
 def write_csv(d, out):
-    """Control records to CSV (one row each): t_s, then CONTROL_COLUMNS, then lat/lon degrees."""
-    cols = ["t_s", "key"] + CONTROL_COLUMNS + ["lat_deg", "lon_deg"]
+    """Control records to CSV (one row each): t_s, utc (where known), then CONTROL_COLUMNS, the
+    codes' names (mode, pilot mode, RTK, alarms), then lat/lon degrees."""
+    cols = (["t_s", "utc", "key"] + CONTROL_COLUMNS
+            + ["mode_name", "pilot_mode_name", "rtk_name", "alarm_names", "lat_deg", "lon_deg"])
     with open(out, "w", newline="") as f:
         w = csv.writer(f)
         w.writerow(cols)
         for r in d.controls:
-            row = ["%.3f" % r.t_s, int(r.key)]
+            row = ["%.3f" % r.t_s, utc_of(d, r), int(r.key)]
             for c in CONTROL_COLUMNS:
                 v = getattr(r, c, "")
                 row.append(int(v) if isinstance(v, bool) else v)
+            row += [mode_name(r.mode), pilot_mode_name(r.pilot_mode),
+                    RTK_NAMES[r.rtk] if 0 <= r.rtk < 4 else str(r.rtk), "|".join(alarm_names(r.alarms))]
             row.append(lat_lon_deg_text(r.lat_e7, r.lat_hp))
             row.append(lat_lon_deg_text(r.lon_e7, r.lon_hp))
             w.writerow(row)
     return len(d.controls)
+
+
+def write_events_csv(d, out):
+    """Events and damage reports to CSV in log order: t_s, utc, kind, text (damage: kind DAMAGE)."""
+    with open(out, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["t_s", "utc", "kind", "text", "file"])
+        for e in d.events:
+            w.writerow(["%.3f" % e.t_s, utc_of(d, e), e.kind, e.text, e.file])
+        for x in d.damage:
+            w.writerow(["", "", "DAMAGE", "@%d: %d bytes, %s, %d control records lost"
+                        % (x.offset, x.length, x.reason, x.records), x.file])
+    return len(d.events) + len(d.damage)
 
 
 def alarm_names(bits):

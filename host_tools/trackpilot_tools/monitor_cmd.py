@@ -34,9 +34,9 @@ def render(st, age_s, stale_s, source):
     link = "LINK STALE: no status for %.1f s" % age_s if age_s > stale_s else "link ok (%.1f s)" % age_s
     lines = [
         "trackpilot monitor  boat %d  seq %d  %s  [%s]" % (st.boat_id, st.seq, source, link),
-        "mode    %-22s alarms %s" % (mode_text(st), ",".join(alarm_names(st.alarms)) or "-"),
+        "mode    %-22s alarms %s" % (mode_text(st), alarms_text(st)),
     ]
-    if st.alarm_reason:
+    if st.alarms and st.alarm_reason:  # the reason stays in the status after the alarm clears
         lines.append("alarm   %s" % st.alarm_reason)
     if st.refusal:
         lines.append("refused %s" % st.refusal)
@@ -59,6 +59,15 @@ def render(st, age_s, stale_s, source):
             st.wind_angle_deg, st.wind_speed_mps)),
     ]
     return lines
+
+
+def alarms_text(st):
+    """Active alarms, each marked `(ack)` once a person acknowledged it (no longer sounding)."""
+    names = alarm_names(st.alarms)
+    if not names:
+        return "-"
+    acked = set(alarm_names(st.alarms & ~st.sounding))
+    return ",".join(n + (" (ack)" if n in acked else "") for n in names)
 
 
 def _bar(xte_m, half=10, full_m=5.0):
@@ -120,8 +129,47 @@ class SerialSource:
         return None
 
 
+def _source(args):
+    from trackpilot_tools.errors import check_port
+
+    check_port("--udp", args.udp)
+    if args.web:
+        check_port("--http-port", args.http_port)
+    try:
+        return SerialSource(args.serial, args.baud) if args.serial else UdpSource(args.udp, args.udp_host)
+    except SystemExit as e:  # the sources' own one-line reasons
+        from trackpilot_tools.errors import UserError
+
+        raise UserError(str(e).replace("monitor: ", "", 1))
+
+
+def cmd_web(args):
+    from trackpilot_tools import webmon
+
+    track = None
+    if args.track:
+        from trackpilot.track import TrackError
+
+        from trackpilot_tools.errors import UserError
+
+        try:
+            track = webmon.load_track(args.track)
+        except OSError as e:
+            raise UserError("cannot read track %s: %s" % (args.track, e.strerror or e))
+        except TrackError as e:
+            raise UserError("%s: %s" % (args.track, e))
+    book = webmon.Book(track, history_s=args.history_s, stale_s=args.stale_s)
+    src = _source(args)
+    webmon.serve(src, book, args.http_host, args.http_port, args.duration, out=lambda m: print(m, flush=True))
+    print("monitor: %d status datagrams, %d bad" % (book.count, book.bad), file=sys.stderr)
+    return 0
+
+
 def cmd_monitor(args):
-    src = SerialSource(args.serial, args.baud) if args.serial else UdpSource(args.udp)
+    if args.web:
+        return cmd_web(args)
+    src = _source(args)
+    print("monitor: listening on %s" % src.name, file=sys.stderr, flush=True)  # ready: send now
     tty = sys.stdout.isatty() and not args.plain
     st = None
     last_rx = None
@@ -136,7 +184,10 @@ def cmd_monitor(args):
         data = src.read()
         if data is not None:
             try:
-                st = decode_status(data)
+                new = decode_status(data)
+                if args.boat is not None and new.boat_id != args.boat:
+                    continue  # another boat's status: the text view shows one boat
+                st = new
                 last_rx = time.monotonic()
                 count += 1
             except ValueError as e:
@@ -163,10 +214,22 @@ def cmd_monitor(args):
 
 def add_parser(p):
     p.add_argument("--udp", type=int, default=10111, help="UDP port of the status datagrams (default 10111)")
+    p.add_argument("--udp-host", default="0.0.0.0",
+                   help="local address to listen on (default 0.0.0.0: every interface, broadcasts too)")
     p.add_argument("--serial", help="read `TPS <hex>` lines from this serial port instead (USB console)")
     p.add_argument("--baud", type=int, default=115200)
     p.add_argument("--stale-s", type=float, default=3.0, help="show the link as stale after this long")
     p.add_argument("--plain", action="store_true", help="one line per update instead of a live screen")
     p.add_argument("--count", type=int, default=0, help="stop after this many datagrams")
     p.add_argument("--duration", type=float, default=0.0, help="stop after this many seconds")
+    p.add_argument("--boat", type=int, help="text view: show only this boat id (default: whatever arrives)")
+    w = p.add_argument_group("web view (--web)")
+    w.add_argument("--web", action="store_true",
+                   help="serve a live page instead: map of the boats on the track, xte and heading charts, "
+                        "every boat by id (read-only)")
+    w.add_argument("--http-host", default="127.0.0.1",
+                   help="interface of the page (default 127.0.0.1: this computer only; 0.0.0.0: the LAN)")
+    w.add_argument("--http-port", type=int, default=8080, help="port of the page (default 8080)")
+    w.add_argument("--track", help="the track file the boat sails, to draw the planned path and the current leg")
+    w.add_argument("--history-s", type=float, default=600.0, help="minutes of history in charts and trails, in s (default 600)")
     p.set_defaults(func=cmd_monitor)

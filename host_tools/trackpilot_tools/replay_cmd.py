@@ -38,7 +38,7 @@ def run_replay(logs, config=None, law=None, sets=(), csv=False):
 
 def _check_sets(config_path, sets):
     """--config and --set checked on the host, so a typo is one line, not a MicroPython error."""
-    from trackpilot_tools.logdecode import FIRMWARE_DIR  # noqa: F401 (puts the firmware on sys.path)
+    import trackpilot_tools.logdecode  # noqa: F401 (puts firmware/ on sys.path)
     from trackpilot import config as fwconfig
 
     if config_path and not Path(config_path).is_file():

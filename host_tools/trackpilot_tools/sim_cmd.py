@@ -1,6 +1,7 @@
 """`trackpilot sim TRACK`: sail a track with the real firmware (MicroPython unix port) against the
 simulated boat, and write an output folder: the firmware's log, truth.csv, summary.json/.md, plots."""
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -173,7 +174,7 @@ def run(args):
     print("  truth trace:  %s" % (out / "truth.csv"))
     print("  summary:      %s, %s" % (out / "summary.json", out / "summary.md"))
     for p in plots:
-        print("  plot:         %s" % (out / Path(p).name))
+        print("  plot:         %s" % (out / p))
     return 0 if res["failure"] is None else 1
 
 
@@ -200,4 +201,4 @@ def _sail(args, out):
     plots = []
     if not args.no_plots:
         plots = report.plot_truth(str(out), res["geom"]) + report.plot_firmware_log(str(out))
-    return res, summ, plots
+    return res, summ, [os.path.relpath(p, out) for p in plots]

@@ -24,3 +24,6 @@ def test_case_reaction(tmp_path, name):
     row = bench_faults.run_fault({"fault": name, "track": track, "out": str(tmp_path / name), "timeout": 120})
     assert row["failure"] is None, row
     assert row["reaction_ok"], row
+
+
+pytestmark = pytest.mark.mpy  # runs the firmware under $MICROPYTHON (so make test's 32-bit pass too)

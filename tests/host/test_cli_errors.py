@@ -47,6 +47,10 @@ CASES = [
     (["track", "check", "nope.csv"], "No such file"),
     (["track", "check", "{BAD}"], "header lacks the column"),
     (["monitor", "--serial", "/dev/nonexistent-port", "--count", "1"], "cannot open serial port"),
+    (["monitor", "--udp", "99999", "--count", "1"], "a port is 1..65535"),
+    (["monitor", "--web", "--http-port", "70000", "--duration", "1"], "a port is 1..65535"),
+    (["monitor", "--web", "--track", "/nonexistent/t.csv", "--duration", "1"], "cannot read track"),
+    (["sim", TRACK, "--udp-out", "--udp-port", "0"], "must be a UDP port"),
 ]
 
 

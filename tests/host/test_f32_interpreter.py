@@ -96,6 +96,72 @@ def test_single_precision(f32, tmp_path):
     assert out == ["0.33333334 True True", "3.1415928 inf"]
 
 
+def test_build_is_cached_however_called(f32, tmp_path):
+    """A second build does nothing, whether called with a relative path (make) or an absolute
+    one from elsewhere (this file's fixture): the fingerprint must not depend on the path."""
+    for cmd, cwd in ((["bash", "tools/build_micropython_f32.sh"], ROOT), (["bash", str(BUILD_SCRIPT)], tmp_path)):
+        proc = subprocess.run(cmd, cwd=str(cwd), capture_output=True, text=True, timeout=900)
+        assert proc.returncode == 0, proc.stderr[-2000:]
+        assert "up to date" in proc.stderr and "compiling" not in proc.stderr, proc.stderr[-2000:]
+
+
+def test_32_bit_word_and_ticks(f32, tmp_path):
+    """The ESP32's int width: small ints end at 2**30 - 1 (past that a long int on the heap), and
+    the ticks wrap at 2**30."""
+    out = run_mpy(f32, tmp_path, """
+import micropython, sys, time
+def probe(v):
+    micropython.heap_lock()
+    try:
+        v + 0
+        ok = True
+    except MemoryError:
+        ok = False
+    micropython.heap_unlock()
+    return "small" if ok else "long"
+print([probe((1 << 30) - 1), probe(1 << 30)], sys.maxsize, time.ticks_add((1 << 30) - 1, 1),
+      time.ticks_diff(5, (1 << 30) - 5))
+""")
+    assert out == ["['small', 'long'] 2147483647 0 10"]
+
+
+def test_asyncio_select_and_socket(f32, tmp_path):
+    """asyncio (PyPI's pure-Python port, in lib/ beside the binary) runs tasks and streams over
+    select.poll; a UDP datagram and a TCP connection (asyncio.open_connection) on loopback."""
+    out = run_mpy(f32, tmp_path, """
+import asyncio, select, socket
+u = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+u.bind(socket.getaddrinfo("127.0.0.1", 0)[0][-1])
+p = select.poll()
+p.register(u, select.POLLIN)
+print(p.poll(0))
+srv = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+srv.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+srv.bind(socket.getaddrinfo("127.0.0.1", 0)[0][-1])
+srv.listen(1)
+a = srv.getsockname()  # raw sockaddr_in: the port is bytes 2-3, big-endian
+port = (a[2] << 8) | a[3]
+
+async def tick(out):
+    for i in range(3):
+        await asyncio.sleep_ms(5)
+        out.append(i)
+
+async def main():
+    out = []
+    t = asyncio.create_task(tick(out))
+    reader, writer = await asyncio.open_connection("127.0.0.1", port)
+    writer.write(b"hello")
+    await writer.drain()
+    await t
+    writer.close()
+    return out
+
+print(asyncio.run(main()))
+""")
+    assert out == ["[]", "[0, 1, 2]"]
+
+
 def test_modules_import_without_path(f32, tmp_path):
     out = run_mpy(f32, tmp_path, "import sys\nsys.path[:] = []\n"
                   "import json, binascii, random, heapq, hashlib\n"

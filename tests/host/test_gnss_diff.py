@@ -340,7 +340,7 @@ def _order_stream(order, with_eoe, n_epochs=10, period_ms=200):
 @pytest.mark.parametrize("with_eoe", [False, True])
 def test_every_message_order_gives_pyubx2s_heading_and_position(tmp_path, with_eoe):
     """Issue 12: any order of NAV-PVT / NAV-RELPOSNED / NAV-HPPOSLLH, with or without NAV-EOE:
-    every epoch after the first two (the order being learnt) has pyubx2's heading and
+    every epoch after the first (the order being learnt) has pyubx2's heading and
     high-precision position."""
     import itertools
 
@@ -355,11 +355,11 @@ def test_every_message_order_gives_pyubx2s_heading_and_position(tmp_path, with_e
         ref = reference(raw)
         rel = {r.iTOW: r for t, r in ref if t == "NAV-RELPOSNED"}
         hp = {r.iTOW: r for t, r in ref if t == "NAV-HPPOSLLH"}
-        for f in fixes[2:]:
+        for f in fixes[1:]:
             sec = int(round(f["itow"] * 1000))
             assert f["heading_valid"], (order, f)
-            assert abs(f["heading"] - rel[sec].relPosHeading) < 1e-5, (order, f)
+            assert abs(f["heading"] - rel[sec].relPosHeading) < 1e-4, (order, f)  # float32: 1e-5
             assert abs(f["lat"] - hp[sec].lat) < 1e-12 and abs(f["lon"] - hp[sec].lon) < 1e-12
             assert f["rtk"] == "fixed"
             n_cmp += 1
-    assert n_cmp == 6 * 8
+    assert n_cmp == 6 * 9

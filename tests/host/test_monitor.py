@@ -32,7 +32,7 @@ def test_monitor_shows_status_then_stale_link():
 
     port = _free_port()
     mon = _monitor(["--udp", str(port), "--stale-s", "0.6", "--duration", "2.5"])
-    time.sleep(0.6)
+    assert "listening on udp:%d" % port in mon.stderr.readline()  # bound: nothing sent is lost
     st = sample("auto_right")
     st.wind_angle_deg, st.wind_speed_mps, st.battery_v = 45.0, 4.2, 48.1
     tx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
@@ -52,7 +52,7 @@ def test_monitor_shows_status_then_stale_link():
 def test_monitor_watches_a_simulated_run(tmp_path):
     port = _free_port()  # not the default 10111: other test runs may share this machine
     mon = _monitor(["--udp", str(port), "--count", "5", "--duration", "60"])
-    time.sleep(0.5)
+    assert "listening on" in mon.stderr.readline()
     sim = subprocess.run([sys.executable, "-m", "trackpilot_tools.cli", "sim", str(ROOT / "tracks/middelburg_loop.csv"),
                           "--out", str(tmp_path / "out"), "--duration-s", "30", "--no-plots", "--udp-out",
                           "--udp-port", str(port), "--nmea-port", str(_free_port())],
@@ -61,3 +61,17 @@ def test_monitor_watches_a_simulated_run(tmp_path):
     out, err = mon.communicate(timeout=60)
     assert "5 status datagrams, 0 bad" in err, err
     assert "RTK" in out and "pilot" in out
+
+
+def test_text_view_drops_a_cleared_alarm_and_marks_acknowledged():
+    from tphmi.samples import sample
+
+    from trackpilot_tools.monitor_cmd import render
+
+    st = sample("auto_right")
+    st.alarms, st.sounding, st.alarm_reason = 2 | 8, 8, "gnss: RTK lost"
+    text = "\n".join(render(st, 0.1, 3.0, "udp"))
+    assert "alarm   gnss: RTK lost" in text and "(ack)" in text
+    st.alarms = st.sounding = 0  # cleared; the firmware keeps the last reason text in the status
+    text = "\n".join(render(st, 0.1, 3.0, "udp"))
+    assert "RTK lost" not in text and "alarms -" in text

@@ -78,9 +78,12 @@ def _fault_run(straight, tmp_path, fault, duration_s=80):
 
 # (fault, the modes the firmware must show after it, in order) -- ARCHITECTURE.md "Modes and safety"
 REACTIONS = [
-    ("rtk_single@40:30", ["AUTO(degraded)", "ALARM"]),
-    ("gnss_dropout@40:4", ["AUTO(degraded)", "AUTO"]),
-    ("heading_loss@40:4", ["AUTO(degraded)", "AUTO"]),
+    # GNSS gaps inside AUTO (docs/MODES.md "GNSS gaps"): dead reckoning, then guidance again by
+    # itself; 30 s of single count 7.5 s of the 40 s hold (its Doppler velocity); the hold's
+    # ALARM is in test_sim_gnss_gaps.py
+    ("rtk_single@40:30", ["AUTO(dead-reckoning)", "AUTO"]),
+    ("gnss_dropout@40:4", ["AUTO(dead-reckoning)", "AUTO"]),
+    ("heading_loss@40:4", ["AUTO(dead-reckoning)", "AUTO"]),
     ("pilot_hang_keys@40", ["AUTO(recovering)", "AUTO"]),
     ("pilot_silent@40:20", ["AUTO(recovering)"]),
     ("motor_link_loss@40:20", ["ALARM"]),
@@ -113,9 +116,11 @@ AL_SEATALK = 1024  # firmware/trackpilot/modes.py
 
 
 def test_pilot_hang_steer_detected_in_bounded_time(straight, tmp_path):
-    r, res, ms = _fault_run(straight, tmp_path, "pilot_hang_steer@40", duration_s=90)
+    r, res, ms = _fault_run(straight, tmp_path, "pilot_hang_steer@40", duration_s=110)
     hang = [t for t, v in ms if v == "AUTO(recovering)"]
-    assert hang and 40 < hang[0] < 40 + 35, ms  # error builds ~8 s, then one 15 s window
+    # the course error builds ~15-20 s (the 6 s x U lookahead of issue 10 asks for the course
+    # back more gently than the old 3 s: ~8 s then), then one 15 s window
+    assert hang and 40 < hang[0] < 40 + 45, ms
     assert any(v == "AUTO" for t, v in ms if t > hang[0])
     assert r.pilot.hang is None  # Standby then Auto cleared it
     later = [abs(x) for t, x, s, _, _ in res["truth_xte"] if t > hang[0] + 20]

@@ -53,3 +53,6 @@ def test_2000_waypoints_sail_in_the_simulator(tmp_path):
     later = [x for _, x, s, _, _ in res["truth_xte"] if s > 30.0]
     assert later and max(abs(x) for x in later) < 3.0, max(abs(x) for x in later)
     assert max(s for _, _, s, _, _ in res["truth_xte"]) > 40.0
+
+
+pytestmark = pytest.mark.mpy  # runs the firmware under $MICROPYTHON (so make test's 32-bit pass too)

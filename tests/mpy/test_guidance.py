@@ -48,13 +48,21 @@ def test_signs():
     # LOS: boat 2 m to port -> starboard, atan(2 / lookahead)
     law = LosLaw(alos_gain=0.0)
     out = _step(law, Progress(_corner()), make_fix(-2.0, 40.0, 0.0, sog_mps=2.0))
-    t.near(out.lookahead_m, 2.0 * 2.0 * 1.5, 1e-4)  # lookahead_gain * U * heading_tc_s
-    t.near(out.rel_cmd_deg, math.degrees(math.atan(2.0 / 6.0)), 0.02)
+    t.near(out.lookahead_m, 2.0 * 2.0 * 3.0, 1e-4)  # lookahead_gain * U * heading_tc_s
+    t.near(out.rel_cmd_deg, math.degrees(math.atan(2.0 / 12.0)), 0.02)  # heading on the path: no lead
     # slow: the low clamp (gain x T' L = 6 m) holds the lookahead
     out = _step(law, Progress(_corner()), make_fix(-2.0, 40.0, 0.0, sog_mps=0.5))
     t.near(out.lookahead_m, 6.0, 1e-4)
-    # crab: course over ground 5 deg to starboard of the heading -> steer 5 deg to port
+    # lead (damping): on the line, heading 10 deg to port at 2 m/s: the xte 3 s ahead is
+    # 3 * 2 * sin(-10 deg) = -1.04 m, so steer back past the path by atan(1.04 / 12)
     law = LosLaw(alos_gain=0.0)
+    out = _step(law, Progress(_corner()), make_fix(0.0, 40.0, -10.0, sog_mps=2.0))
+    t.near(_diff(out.heading_cmd_deg, 0.0), math.degrees(math.atan(6.0 * math.sin(math.radians(10.0)) / 12.0)), 0.05)
+    law = LosLaw(alos_gain=0.0, xte_lead_s=0.0)
+    out = _step(law, Progress(_corner()), make_fix(0.0, 40.0, -10.0, sog_mps=2.0))
+    t.near(_diff(out.heading_cmd_deg, 0.0), 0.0, 0.01)
+    # crab: course over ground 5 deg to starboard of the heading -> steer 5 deg to port
+    law = LosLaw(alos_gain=0.0, xte_lead_s=0.0)
     out = _step(law, Progress(_corner()), make_fix(0.0, 40.0, 0.0, cog_deg=5.0))
     t.near(out.crab_deg, 5.0, 1e-4)
     t.near(_diff(out.heading_cmd_deg, 0.0), -5.0, 0.01)

@@ -5,7 +5,7 @@
 import micropython
 import tpassert as t
 
-from trackpilot import gnss, logfmt, stlink
+from trackpilot import gnss, logfmt, ntrip, stlink
 
 DATA = bytes(range(256)) * 4
 # an RTCM3 frame (1005) with its CRC: the CRC over header + payload + CRC is 0
@@ -24,6 +24,11 @@ def test_gnss_crc24q_values_and_no_alloc():
     t.eq(_locked3(gnss.crc24q, DATA, 0, len(DATA)), 0xF8E43B)
     t.eq(_locked3(gnss.crc24q, RTCM, 0, len(RTCM)), 0)
     t.eq(_locked3(gnss.crc24q, RTCM, 0, len(RTCM) - 3), 0x5AD7F7)
+
+
+def test_ntrip_crc24q_same_and_no_alloc():
+    t.eq(_locked3(ntrip.crc24q, DATA, 0, len(DATA)), 0xF8E43B)
+    t.eq(_locked3(ntrip.crc24q, RTCM, 0, len(RTCM)), 0)
 
 
 def test_logfmt_crc16_no_alloc():

@@ -180,3 +180,48 @@ def test_seatalk_lost_alarm_hold_and_no_reengage():
     mm2.seatalk_lost(0, "x")
     eq(mm2.mode, M.STANDBY)
     true(mm2.alarms & M.AL_SEATALK)
+
+
+def test_dead_reckoning_continues_the_same_auto():
+    # issue 12: a gap inside AUTO steers on the dead-reckoned position at slow RPM, resumes by
+    # itself on a good fix (no engagement logged), ALARM only past the hold time
+    mm = _auto(M.ModeMachine({"gnss_hold_s": 40}))
+    mm.drain_events()
+    mm.gnss_quality(1000, False, "no GNSS epoch for 280 ms", dr=True, bad_s=0.3)
+    eq(mm.mode, M.AUTO)
+    true(mm.degraded and mm.dead_reckoning)
+    eq(mm.pilot, M.PILOT_STEER)
+    eq(mm.motor, M.MOTOR_SLOW)
+    eq(mm.state_text(), "AUTO(dead-reckoning)")
+    mm.gnss_quality(16000, False, "RTK single", dr=True, bad_s=15.0)
+    mm.gnss_quality(21000, True)
+    eq(mm.mode, M.AUTO)
+    true(not mm.degraded and not mm.dead_reckoning)
+    eq(mm.pilot, M.PILOT_STEER)
+    eq(mm.motor, M.MOTOR_TRACK)
+    texts = [t for _, t in mm.drain_events()]
+    true(not any("engaged" in x for x in texts), repr(texts))
+    true(any("guidance resumed" in x for x in texts), repr(texts))
+
+
+def test_dead_reckoning_hold_counts_the_weighted_gap():
+    mm = _auto(M.ModeMachine({"gnss_hold_s": 40}))
+    mm.gnss_quality(0, False, "stale", dr=True, bad_s=0.3)
+    mm.gnss_quality(45000, False, "RTK single", dr=True, bad_s=39.0)  # 45 s, Doppler part weighed
+    eq(mm.mode, M.AUTO)
+    mm.gnss_quality(46000, False, "stale", dr=True, bad_s=40.2)
+    eq(mm.mode, M.ALARM)
+    eq(mm.pilot, M.PILOT_HOLD)
+    true(mm.alarms & M.AL_GNSS_TIMEOUT)
+    mm.gnss_quality(47000, True)
+    eq(mm.mode, M.ALARM)  # only a person engages again
+
+
+def test_no_dead_reckoning_holds_course():
+    mm = _auto(M.ModeMachine({"gnss_hold_s": 40}))
+    mm.gnss_quality(0, False, "stale", dr=False)
+    eq(mm.pilot, M.PILOT_HOLD)
+    eq(mm.state_text(), "AUTO(degraded)")
+    mm.gnss_quality(200, False, "stale", dr=True, bad_s=0.2)  # compass offset became known
+    eq(mm.pilot, M.PILOT_STEER)
+    true(mm.dead_reckoning)

@@ -35,6 +35,10 @@ static void stderr_print_strn(void *env, const char *str, size_t len) {
 
 const mp_print_t mp_stderr_print = {NULL, stderr_print_strn};
 
+// romfs.c: modules frozen into the binary (none unless built with --frozen).
+size_t romfs_module_count(void);
+int romfs_stat(const char *path);
+
 // Returns the process exit code for an uncaught exception.
 static int handle_uncaught_exception(mp_obj_base_t *exc) {
     if (mp_obj_is_subclass_fast(MP_OBJ_FROM_PTR(exc->type), MP_OBJ_FROM_PTR(&mp_type_SystemExit))) {
@@ -149,8 +153,13 @@ int main(int argc, char **argv) {
     gc_init(heap, heap + heap_size);
     mp_init();
 
-    // sys.path: script directory (or '') then MICROPYPATH entries.
+    // sys.path: [".frozen" in the frozen-firmware build,] script directory (or '') then
+    // MICROPYPATH entries. Frozen modules come first, as on the ESP32, so that the firmware's
+    // source folders on MICROPYPATH do not shadow them.
     mp_obj_list_init(MP_OBJ_TO_PTR(mp_sys_path), 0);
+    if (romfs_module_count() > 0) {
+        mp_obj_list_append(mp_sys_path, mp_obj_new_str_from_cstr(".frozen"));
+    }
     if (script != NULL) {
         const char *slash = strrchr(script, '/');
         mp_obj_list_append(mp_sys_path, slash ? mp_obj_new_str_via_qstr(script, slash - script) : MP_OBJ_NEW_QSTR(MP_QSTR_));
@@ -213,6 +222,10 @@ void gc_collect(void) {
 }
 
 mp_import_stat_t mp_import_stat(const char *path) {
+    int rom = romfs_stat(path);
+    if (rom != 0) {
+        return rom == 1 ? MP_IMPORT_STAT_FILE : MP_IMPORT_STAT_DIR;
+    }
     struct stat st;
     if (stat(path, &st) == 0) {
         if (S_ISDIR(st.st_mode)) {

@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include "py/runtime.h"
+#include "py/smallint.h"
 
 #if MICROPY_PY_RANDOM
 
@@ -52,10 +53,17 @@ static uint32_t rnd_next(void) {
 
 // Uniform in [0, n): mask to the next power of two and retry until below n.  Ranges wider
 // than 32 bits raise ValueError (the unix port loops forever on them; on the ESP32 such ints
-// don't fit mp_int_t anyway).
-static uint32_t rnd_below(mp_int_t n_in) {
-    if (n_in > (mp_int_t)0xffffffff) {
-        if (n_in - 1 == (mp_int_t)0xffffffff) {
+// don't fit mp_int_t anyway). Arithmetic in long long: the same results on a 32-bit build.
+static mp_obj_t new_int_ll(long long v) {
+    if (v >= MP_SMALL_INT_MIN && v <= MP_SMALL_INT_MAX) {
+        return MP_OBJ_NEW_SMALL_INT((mp_int_t)v);
+    }
+    return mp_obj_new_int_from_ll(v);
+}
+
+static uint32_t rnd_below(long long n_in) {
+    if (n_in > 0xffffffffLL) {
+        if (n_in - 1 == 0xffffffffLL) {
             return rnd_next(); // all 32 bits
         }
         mp_raise_ValueError(MP_ERROR_TEXT("range too large"));
@@ -96,22 +104,22 @@ static mp_obj_t mod_random_seed(size_t n_args, const mp_obj_t *args) {
 static MP_DEFINE_CONST_FUN_OBJ_VAR_BETWEEN(mod_random_seed_obj, 0, 1, mod_random_seed);
 
 static mp_obj_t mod_random_randrange(size_t n_args, const mp_obj_t *args) {
-    mp_int_t start = mp_obj_get_int(args[0]);
+    long long start = mp_obj_get_ll(args[0]);
     if (n_args == 1) {
         if (start > 0) {
-            return mp_obj_new_int_from_uint(rnd_below(start));
+            return new_int_ll(rnd_below(start));
         }
         mp_raise_ValueError(NULL);
     }
-    mp_int_t stop = mp_obj_get_int(args[1]);
+    long long stop = mp_obj_get_ll(args[1]);
     if (n_args == 2) {
         if (start < stop) {
-            return mp_obj_new_int(start + (mp_int_t)rnd_below(stop - start));
+            return new_int_ll(start + (long long)rnd_below(stop - start));
         }
         mp_raise_ValueError(NULL);
     }
-    mp_int_t step = mp_obj_get_int(args[2]);
-    mp_int_t n;
+    long long step = mp_obj_get_ll(args[2]);
+    long long n;
     if (step > 0) {
         n = (stop - start + step - 1) / step;
     } else if (step < 0) {
@@ -122,17 +130,17 @@ static mp_obj_t mod_random_randrange(size_t n_args, const mp_obj_t *args) {
     if (n <= 0) {
         mp_raise_ValueError(NULL);
     }
-    return mp_obj_new_int(start + step * (mp_int_t)rnd_below(n));
+    return new_int_ll(start + step * (long long)rnd_below(n));
 }
 static MP_DEFINE_CONST_FUN_OBJ_VAR_BETWEEN(mod_random_randrange_obj, 1, 3, mod_random_randrange);
 
 static mp_obj_t mod_random_randint(mp_obj_t a_in, mp_obj_t b_in) {
-    mp_int_t a = mp_obj_get_int(a_in);
-    mp_int_t b = mp_obj_get_int(b_in);
+    long long a = mp_obj_get_ll(a_in);
+    long long b = mp_obj_get_ll(b_in);
     if (a > b) {
         mp_raise_ValueError(NULL);
     }
-    return mp_obj_new_int(a + (mp_int_t)rnd_below(b - a + 1));
+    return new_int_ll(a + (long long)rnd_below(b - a + 1));
 }
 static MP_DEFINE_CONST_FUN_OBJ_2(mod_random_randint_obj, mod_random_randint);
 

@@ -39,6 +39,15 @@
 #define MICROPY_VFS                         (0)
 #define MICROPY_MODULE_OVERRIDE_MAIN_IMPORT (1)
 #define MICROPY_PERSISTENT_CODE_LOAD        (1)
+// Module files are read by romfs.c's mp_reader_new_file (frozen .mpy images, then files): the
+// core leaves that function to the port when MICROPY_VFS_POSIX is set (no VFS is built).
+#define MICROPY_VFS_POSIX                   (1)
+#ifndef TRACKPILOT_ROMFS
+#define TRACKPILOT_ROMFS                    (0)
+#endif
+// Frozen-firmware build: import .mpy images in place (bytecode, strings and qstrs not copied).
+#define MICROPY_VFS_ROM                     (TRACKPILOT_ROMFS)
+#define MICROPY_VFS_ROM_IOCTL               (0)
 #define MICROPY_HELPER_REPL                 (1)
 #define MICROPY_KBD_EXCEPTION               (0)
 #define MICROPY_REPL_EVENT_DRIVEN           (0)
@@ -123,7 +132,6 @@
 #define MICROPY_PY_SOCKET                   (0)
 #define MICROPY_PY_CRYPTOLIB                (0)
 #define MICROPY_PY_VFS                      (0)
-#define MICROPY_VFS_ROM                     (0)
 
 // Types.
 typedef intptr_t mp_int_t;

@@ -25,6 +25,7 @@ class MotorDevice:
         self.rng = rng
         self.link_lost = False
         self.frames_in = 0
+        self.setpoints = []  # (t_ms, rpm) at each change of the received setpoint
 
     @property
     def rpm(self):
@@ -36,6 +37,8 @@ class MotorDevice:
             return None
         out = self.dev.feed(data, t_ms)
         self.frames_in = self.dev.frames
+        if not self.setpoints or self.setpoints[-1][1] != self.dev.setpoint:
+            self.setpoints.append((t_ms, self.dev.setpoint))
         if not out:
             return None
         return t_ms + 2 + len(out) * 10 * 1000 // 9600, bytes(out)

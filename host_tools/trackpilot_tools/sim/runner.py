@@ -314,6 +314,8 @@ class SimRun:
              "gnss_dropout": "dropout"}
         if name in g:
             self.f9p.set_fault(g[name], on, t_ms)
+        elif name == "compass_bend":
+            self.pilot.bend_deg = 6.0 if on else 0.0
         elif name == "pilot_hang_steer":
             self.pilot.set_hang("steer")
         elif name == "pilot_hang_keys":
@@ -587,6 +589,7 @@ class SimRun:
             "bus": dict(self.bus.stats), "pilot_keys_accepted": self.pilot.keys_accepted,
             "pilot_keys_ignored": self.pilot.keys_ignored,
             "pilot_keys_by_sender": dict(self.pilot.keys_by_sender), "pilot_bad_datagrams": self.pilot.bad_datagrams,
-            "gnss_epochs": self.f9p.epochs, "telemetry_bytes": self.telemetry_bytes,
+            "gnss_epochs": self.f9p.epochs, "gnss_valsets": self.f9p.valsets,
+            "motor_setpoints": list(self.motor.setpoints) if self.motor else [], "telemetry_bytes": self.telemetry_bytes,
             "truth_xte": self.truth_xte, "geom": self.geom, "out": str(self.out),
         }

@@ -24,6 +24,7 @@ FAULTS = {
     "rtk_single": (True, "GNSS single fix (1-2 m), no dual-antenna heading"),
     "heading_loss": (True, "dual-antenna heading invalid (relPosHeadingValid = 0)"),
     "gnss_dropout": (True, "no GNSS output at all (bridge); then single, float, fixed"),
+    "compass_bend": (True, "the pilot's compass bent 6 deg by a steel bridge"),
     "pilot_hang_steer": (False, "ST2000+ keeps talking and taking keys, the rudder stops tracking"),
     "pilot_hang_keys": (False, "ST2000+ ignores course keystrokes (Standby/Auto still work)"),
     "pilot_key_standby": (False, "a person presses Standby on the ST2000+"),
@@ -47,6 +48,19 @@ FAULTS = {
     "button_engage": (False, "ENGAGE pressed on the HMI"),
     "button_trial": (False, "TRIAL (commissioning trial) asked on the HMI"),
 }
+
+
+# A bridge on a canal (issue 12): RTK float on the approach, no GNSS under it, then the receiver
+# reacquires (single, then float, set by the gnss reacquire_* parameters), the compass bent by
+# the steel. bridge_faults(t_s, dropout_s) gives the fault list, BRIDGE_GNSS the parameters.
+BRIDGE_GNSS = {"gnss": {"reacquire_single_s": 5.0, "reacquire_float_s": 9.0}}
+
+
+def bridge_faults(t_s, dropout_s, float_before_s=6.0, bend_s=None):
+    bend_s = bend_s if bend_s is not None else dropout_s + 6.0
+    return ["rtk_float@%g:%g" % (t_s, float_before_s),
+            "gnss_dropout@%g:%g" % (t_s + float_before_s, dropout_s),
+            "compass_bend@%g:%g" % (t_s + float_before_s - 3.0, bend_s)]
 
 
 def parse_fault(text):

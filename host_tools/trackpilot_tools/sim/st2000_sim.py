@@ -36,6 +36,7 @@ class ST2000Sim:
         self.mode = stcodec.MODE_AUTO if params["initial_mode"] == "auto" else stcodec.MODE_STANDBY
         self.course_deg = 0.0
         self.compass_deg = None  # lagged compass reading (float), set on the first step
+        self.bend_deg = 0.0  # deviation by nearby steel (fault compass_bend), deg
         self.compass_rate = 0.0
         self.drift = GaussMarkov(rng, params["compass_drift_sd_deg"], params["compass_drift_tau_s"])
         self.rudder_deg = 0.0
@@ -45,6 +46,7 @@ class ST2000Sim:
         self.rx_last_us = 0
         self.off_course_s = 0.0
         self.log = []  # (t_ms, what) events: keys accepted/ignored, mode changes
+        self.last_course_key_ms = None  # the last course change by a key
         self.keys_accepted = 0
         self.keys_ignored = 0
         self.bad_datagrams = 0
@@ -89,7 +91,7 @@ class ST2000Sim:
         self.drift.step(dt_s)
         h = math.radians(true_heading_deg)
         dev = p.get("compass_dev_sin_deg", 0.0) * math.sin(h) + p.get("compass_dev_cos_deg", 0.0) * math.cos(h)
-        meas = (true_heading_deg + p["compass_offset_deg"] + dev + self.drift.x
+        meas = (true_heading_deg + p["compass_offset_deg"] + dev + self.bend_deg + self.drift.x
                 + self.rng.gauss(0, p["compass_noise_deg"]))
         if self.compass_deg is None:
             self.compass_deg = meas % 360.0
@@ -181,6 +183,7 @@ class ST2000Sim:
         elif key in stcodec.COURSE_KEYS:
             if self.mode == stcodec.MODE_AUTO and (self.hang != "keys" or local):
                 self.course_deg = (self.course_deg + stcodec.COURSE_KEYS[key]) % 360.0
+                self.last_course_key_ms = t_ms
                 accepted = True
         if accepted:
             self.keys_accepted += 1

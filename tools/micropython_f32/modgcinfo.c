@@ -1,0 +1,34 @@
+// trackpilot f32 port: `gcinfo.info()`, the heap figures MicroPython's micropython.mem_info()
+// prints, as numbers: (total, used, free, largest free block, largest used block), in bytes.
+// Only in this host build (not on the ESP32): the benchmark's start-up heap table reads the
+// largest free block here, because finding it by allocating can leave a stale pointer that
+// pins the block it found.
+#include "py/gc.h"
+#include "py/runtime.h"
+
+static mp_obj_t gcinfo_info(void) {
+    gc_info_t info;
+    gc_info(&info);
+    mp_obj_t items[5] = {
+        mp_obj_new_int_from_uint(info.total),
+        mp_obj_new_int_from_uint(info.used),
+        mp_obj_new_int_from_uint(info.free),
+        mp_obj_new_int_from_uint(info.max_free * MICROPY_BYTES_PER_GC_BLOCK),
+        mp_obj_new_int_from_uint(info.max_block * MICROPY_BYTES_PER_GC_BLOCK),
+    };
+    return mp_obj_new_tuple(5, items);
+}
+static MP_DEFINE_CONST_FUN_OBJ_0(gcinfo_info_obj, gcinfo_info);
+
+static const mp_rom_map_elem_t gcinfo_module_globals_table[] = {
+    { MP_ROM_QSTR(MP_QSTR___name__), MP_ROM_QSTR(MP_QSTR_gcinfo) },
+    { MP_ROM_QSTR(MP_QSTR_info), MP_ROM_PTR(&gcinfo_info_obj) },
+};
+static MP_DEFINE_CONST_DICT(gcinfo_module_globals, gcinfo_module_globals_table);
+
+const mp_obj_module_t mp_module_gcinfo = {
+    .base = { &mp_type_module },
+    .globals = (mp_obj_dict_t *)&gcinfo_module_globals,
+};
+
+MP_REGISTER_MODULE(MP_QSTR_gcinfo, mp_module_gcinfo);
