@@ -242,6 +242,7 @@ class App:
             self.w.gnss_uart.write(out)
         if s.state != ubxcfg.BUSY and not self._gnss_cfg_reported:
             self._gnss_cfg_reported = True
+            self.gnss_cfg_failed = s.state != ubxcfg.DONE  # shown on the HMI's GNSS page
             self.event("GNSS", "receiver configuration %s: %s" % (
                 "done" if s.state == ubxcfg.DONE else "FAILED (running with what it sends)",
                 s.log[-1][1] if s.log else ""))
@@ -253,6 +254,7 @@ class App:
 
         self.gnss_cfg = ubxcfg.ConfigSession(ubxcfg.valset_frames(ubxcfg.rover_items()))
         self._gnss_cfg_reported = False
+        self.gnss_cfg_failed = False
         self.gnss.on_msg = self._on_gnss_msg
         first = self.gnss_cfg.start(self.clock())
         if first:

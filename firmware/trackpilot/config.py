@@ -167,6 +167,18 @@ SCHEMA = {
         "command_port": (10112, "i", 1, 65535),
         "remote_enabled": (False, "b", None, None),
     },
+    "trial": {  # commissioning trial (trial.py, docs/COMMISSIONING.md)
+        "rpm_low": (600, "i", 100, 3000),
+        "rpm_high": (1000, "i", 100, 3000),
+        "straight_s": (45, "i", 10, 300),
+        "step_max_s": (25, "i", 8, 120),
+        "zigzag_deg": (10, "i", 5, 30),
+        "circle_lead_deg": (150, "i", 40, 170),
+        "circle_turns": (2, "i", 1, 5),
+        "max_distance_m": (600.0, "f", 50.0, 5000.0),
+        "max_duration_s": (600, "i", 60, 3600),
+        "min_speed_mps": (0.5, "f", 0.1, 3.0),
+    },
     "telemetry": {
         "enabled": (False, "b", None, None),
         "udp_host": ("255.255.255.255", "s", None, None),

@@ -244,9 +244,11 @@ class Pages:
         else:
             self.text("HDG invalid", 0, 29)
         if st.corr_age_s < 0:
-            self.text("corr age  ---", 0, 38)
+            self.text("corr   ---", 0, 38)
         else:
-            self.text("corr age %4.1fs" % (st.corr_age_s if st.corr_age_s < 999 else 999.0), 0, 38)
+            self.text("corr %5.1fs" % (st.corr_age_s if st.corr_age_s < 999 else 999.0), 0, 38)
+        if st.gnss_cfg_failed:  # the receiver did not take our configuration (docs/GNSS.md)
+            self.text_right("CFG!", 38)
         if st.pos_valid:
             self.text(lat_lon_text(st.lat_e7, "N", "S"), 0, 47)
             self.text(lat_lon_text(st.lon_e7, "E", "W"), 0, 56)

@@ -20,7 +20,8 @@ MODE_STANDBY = const(0)
 MODE_AUTO = const(1)
 MODE_ALARM = const(2)
 MODE_ESTOP = const(3)
-MODE_NAMES = ("STANDBY", "AUTO", "ALARM", "E-STOP")
+MODE_TRIAL = const(4)  # commissioning trial (docs/COMMISSIONING.md)
+MODE_NAMES = ("STANDBY", "AUTO", "ALARM", "E-STOP", "TRIAL")
 
 # GNSS quality (same numbers as trackpilot.nav.fix.RTK_*).
 RTK_NAMES = ("none", "single", "float", "fixed")
@@ -109,6 +110,7 @@ FIELDS = (
     # Wi-Fi (trackpilot.board.wifi): station state and access point
     ("wifi", 0),  # 0 off, 1 connecting, 2 up, 3 retry (WIFI_NAMES)
     ("wifi_ap", False),  # the access point is on
+    ("gnss_cfg_failed", False),  # the receiver's CFG-VALSET session failed (it runs on what it sends)
     # environment and power (the datagram's trailer)
     ("wind_angle_deg", -1.0),  # apparent wind angle from the bow, 0..360, -1 unknown
     ("wind_speed_mps", -1.0),  # apparent wind speed, -1 unknown
@@ -195,7 +197,8 @@ def encode_status(st):
         st.seq & 0xFFFF,
         _clamp(st.mode, 0, 255),
         st.flags(),
-        (1 if st.pilot_ok else 0) | ((st.wifi & 3) << 1) | (8 if st.wifi_ap else 0),
+        (1 if st.pilot_ok else 0) | ((st.wifi & 3) << 1) | (8 if st.wifi_ap else 0)
+        | (16 if st.gnss_cfg_failed else 0),
         _clamp(st.rtk, 0, 255),
         st.alarms & 0xFFFF,
         st.sounding & 0xFFFF,
@@ -274,6 +277,7 @@ def decode_status(pkt, st=None):
     st.pilot_ok = bool(flags2 & 1)
     st.wifi = (flags2 >> 1) & 3
     st.wifi_ap = bool(flags2 & 8)
+    st.gnss_cfg_failed = bool(flags2 & 16)
     st.wind_angle_deg = -1.0 if trailer[0] == 65535 else trailer[0] / 10.0
     st.wind_speed_mps = -1.0 if trailer[1] == 65535 else trailer[1] / 100.0
     st.battery_v = -1.0 if trailer[2] == 65535 else trailer[2] / 100.0
@@ -346,6 +350,7 @@ def status_from_app(app, t_ms, st=None):
     link = getattr(w, "wifi", None) if w is not None else None
     st.wifi = link.state if link is not None else 0
     st.wifi_ap = bool(link.ap_active) if link is not None else False
+    st.gnss_cfg_failed = bool(getattr(app, "gnss_cfg_failed", False))
     age = w.correction_age_s(t_ms) if w is not None and hasattr(w, "correction_age_s") else None
     st.corr_age_s = -1.0 if age is None else float(age)
     prog = getattr(app, "progress", None)

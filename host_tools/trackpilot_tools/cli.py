@@ -13,6 +13,7 @@ COMMANDS = [
     ("bench", "trackpilot_tools.bench_cmd", "accuracy, compute and fault benchmark"),
     ("log", "trackpilot_tools.log_cmd", "decode and plot firmware logs"),
     ("replay", "trackpilot_tools.replay_cmd", "replay a log through the firmware core"),
+    ("tune", "trackpilot_tools.tune_cmd", "fit the boat from a commissioning trial's log; tuned config"),
     ("monitor", "trackpilot_tools.monitor_cmd", "live view of the boat from its telemetry"),
     ("hmi", "trackpilot_tools.hmi_cmd", "preview the HMI pages"),
     ("deploy", "trackpilot_tools.device_cmd", "install the firmware on an ESP32"),

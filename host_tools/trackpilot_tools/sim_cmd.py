@@ -51,6 +51,10 @@ def add_parser(p):
     p.add_argument("--journal", action="store_true",
                    help="the firmware writes every input of its decision core to OUT/fw/journal.txt "
                         "(check with: trackpilot replay OUT/fw/log/*.tpl --config OUT/config.json --journal OUT/fw/journal.txt)")
+    p.add_argument("--trial", action="store_true",
+                   help="press TRIAL instead of ENGAGE: sail the commissioning trial (docs/COMMISSIONING.md)")
+    p.add_argument("--boat", metavar="FIT.json",
+                   help="sail the boat identified by `trackpilot tune` (its sim_params over the defaults)")
     p.add_argument("--no-plots", action="store_true")
     p.add_argument("--verbose", action="store_true", help="firmware diagnostics into firmware_stderr.txt")
     p.set_defaults(func=run)
@@ -59,7 +63,11 @@ def add_parser(p):
 def build_overrides(args):
     from .sim import params as pm
 
-    over = pm.parse_set(args.set)
+    over = {}
+    if getattr(args, "boat", None):
+        over = boat_overrides(args.boat)
+    pm.merge_new(over, pm.parse_set(args.set))
+
     def put(sec, key, val):
         if val is not None:
             over.setdefault(sec, {})[key] = val
@@ -71,6 +79,22 @@ def build_overrides(args):
     put("water", "wave_yaw_rms_deg", args.wave_yaw_deg)
     put("sim", "start_offset_m", args.start_offset_m)
     return over
+
+
+def boat_overrides(path):
+    """The simulator parameters of a boat fitted by `trackpilot tune` (FIT.json's sim_params).
+    ValueError with one line when the file is not such a fit."""
+    import json
+
+    try:
+        fit = json.loads(Path(path).read_text())
+    except OSError as e:
+        raise ValueError("--boat %s: cannot read it (%s)" % (path, e.strerror or e))
+    except ValueError:
+        raise ValueError("--boat %s: not JSON (write one with `trackpilot tune LOG`)" % path)
+    if not isinstance(fit, dict) or not isinstance(fit.get("sim_params"), dict):
+        raise ValueError("--boat %s: no sim_params in it (write one with `trackpilot tune LOG`)" % path)
+    return fit["sim_params"]
 
 
 def check_inputs(args):
@@ -171,7 +195,8 @@ def _sail(args, out):
                   udp_out=udp_targets(args),
                   fw_config=pm.parse_set(args.fw_set),
                   fw_config_bytes=fw_bytes,
-                  reengage_s=args.reengage_s, quiet=not args.verbose, journal=args.journal)
+                  reengage_s=args.reengage_s, quiet=not args.verbose, trial=args.trial,
+                  journal=args.journal)
     res = run_.run()
     meta = {"track": str(args.track), "law": args.law, "scenario": args.scenario, "seed": args.seed,
             "faults": args.fault}

@@ -1,6 +1,12 @@
 """`trackpilot upload TRACK`: put a track on a running board, verified, without a reset.
+`trackpilot upload --config FILE`: install configuration settings (e.g. `trackpilot tune`'s
+config.json) the same way: validated here with the firmware's own schema, merged over the board's
+/config.json, the merged file validated again, copied, verified and renamed over /config.json (the
+old one kept as /config.previous.json); only in STANDBY (the maintenance state's rule). The
+firmware reads its configuration at start-up: the settings take effect at the next reset.
 
     trackpilot upload tracks/middelburg_loop.csv [--port PORT]
+    trackpilot upload --config tune_out/config.json [--port PORT]
 
 Steps (each one printed):
   1. validate the file with the firmware's own track module (firmware/trackpilot/nav/track.py, run
@@ -13,13 +19,19 @@ Steps (each one printed):
      mismatch removes the temporary file and changes nothing;
   5. end maintenance: the app restarts without a reset, in STANDBY, and loads the new track.
 """
+import json
+import os
 import sys
+import tempfile
 import time
 from pathlib import Path
 
 from trackpilot_tools.device_cmd import Device, DeviceError, add_device_args, file_digest
 from trackpilot_tools.mpy import FIRMWARE_DIR
 
+CONFIG = "config.json"
+CONFIG_PREVIOUS = "config.previous.json"
+CONFIG_TEMP = "config.upload.tmp"
 ACTIVE = "tracks/active.csv"
 PREVIOUS = "tracks/previous.csv"
 TEMP = "tracks/upload.tmp"
@@ -78,9 +90,99 @@ def upload(dev, path, before_install=None, say=print):
             say("warning: could not end maintenance (%s); it ends by itself after its idle time" % e)
 
 
+def _fw_config():
+    if str(FIRMWARE_DIR) not in sys.path:
+        sys.path.insert(0, str(FIRMWARE_DIR))
+    from trackpilot import config as fwconfig
+
+    return fwconfig
+
+
+def check_config(path):
+    """The settings of a partial configuration file, validated; DeviceError with every mistake."""
+    fwconfig = _fw_config()
+    try:
+        cfg = json.loads(Path(path).read_text())
+    except OSError as e:
+        raise DeviceError("cannot read %s: %s" % (path, e.strerror or e))
+    except ValueError as e:
+        raise DeviceError("%s is not JSON (%s); not uploaded" % (path, e))
+    if not isinstance(cfg, dict) or not all(isinstance(v, dict) for v in cfg.values()):
+        raise DeviceError("%s: expected {\"section\": {\"key\": value}}; not uploaded" % path)
+    errors = fwconfig.validate(cfg)
+    if errors:
+        raise DeviceError("%s: %s; not uploaded" % (path, "; ".join(errors)))
+    return cfg
+
+
+def merge_config(current, new):
+    out = {sec: dict(body) for sec, body in current.items() if isinstance(body, dict)}
+    for sec, body in new.items():
+        out.setdefault(sec, {}).update(body)
+    return out
+
+
+def upload_config(dev, path, say=print):
+    """Validate, enter maintenance (STANDBY only), merge over the board's configuration, validate
+    the result, copy, verify, install, leave. Returns (the board's answer, the merged settings)."""
+    fwconfig = _fw_config()
+    new = check_config(path)
+    say("configuration %s: %d settings in %s: valid" % (
+        path, sum(len(b) for b in new.values()), ", ".join(sorted(new))))
+    dev.enter()
+    try:
+        ans = dev.xfer("read_small(%r)" % dev.path(CONFIG))
+        if not ans.get("ok"):
+            raise DeviceError("cannot read the board's configuration: %s" % ans.get("why"))
+        current = {}
+        if ans.get("text"):
+            try:
+                current = json.loads(ans["text"])
+            except ValueError:
+                current = None
+            if not isinstance(current, dict):
+                say("warning: the board's %s is not a valid JSON object; the new file starts "
+                    "from the defaults plus these settings" % CONFIG)
+                current = {}
+        merged = merge_config(current, new)
+        errors = fwconfig.validate(merged)
+        if errors:
+            raise DeviceError("the board's configuration with these settings does not validate: %s; "
+                              "nothing changed" % "; ".join(errors))
+        fd, tmp = tempfile.mkstemp(suffix=".json")
+        try:
+            with os.fdopen(fd, "w") as f:
+                f.write(json.dumps(merged, indent=1, sort_keys=True))
+            size = Path(tmp).stat().st_size
+            digest = file_digest(tmp, dev.xfer("info()")["algo"])
+            dev.copy_to(tmp, dev.path(CONFIG_TEMP))
+        finally:
+            os.unlink(tmp)
+        ans = dev.xfer("install(%r, %r, %d, %r, %r)" % (
+            dev.path(CONFIG_TEMP), dev.path(CONFIG), size, digest, dev.path(CONFIG_PREVIOUS)))
+        if not ans.get("ok"):
+            raise DeviceError("the board refused the configuration: %s" % ans.get("why"))
+        say("verified on the board and installed as %s%s" % (
+            dev.path(CONFIG), "; the previous one is kept as %s" % ans["kept"] if ans.get("kept") else ""))
+        return ans, merged
+    finally:
+        try:
+            dev.leave()
+        except DeviceError as e:
+            say("warning: could not end maintenance (%s); it ends by itself after its idle time" % e)
+
+
 def _run(args):
+    if bool(args.track) == bool(args.config):
+        print("trackpilot upload: give a TRACK or --config FILE (one of them)", file=sys.stderr)
+        return 2
     try:
         dev = Device(args.port, args.device_root)
+        if args.config:
+            upload_config(dev, args.config)
+            print("the firmware reads its configuration at start-up: the settings take effect at "
+                  "the next reset (power-cycle the board in STANDBY)")
+            return 0
         upload(dev, args.track)
         print("the app picks the track up now, in STANDBY (engaging stays a person's decision)")
         return 0
@@ -90,6 +192,8 @@ def _run(args):
 
 
 def add_parser(p):
-    p.add_argument("track", help="track CSV file (tracks/README.md)")
+    p.add_argument("track", nargs="?", help="track CSV file (tracks/README.md)")
+    p.add_argument("--config", metavar="FILE",
+                   help="install configuration settings instead (e.g. trackpilot tune's config.json)")
     add_device_args(p)
     p.set_defaults(func=_run)

@@ -205,3 +205,41 @@ def test_plain_mpremote_soft_reset_is_answered_not_performed(board):
     dev.leave()
     assert _wait_for(lambda: "RUN app run 2" in b.events())
     assert b.events().count("RUN app run") == 2 and b.alive()
+
+
+def test_upload_config_merges_validates_and_keeps_previous(board, tmp_path):
+    import json
+
+    from trackpilot_tools.upload_cmd import upload_config
+
+    b = board()
+    (b.root / "config.json").write_text(json.dumps({"ntrip": {"enabled": False}, "boat": {"name": "blik"}}))
+    tuned = tmp_path / "config.json"
+    tuned.write_text(json.dumps({"boat": {"min_turn_radius_m": 8.5}, "guidance": {"los_lookahead_gain": 1.4}}))
+    ans, merged = upload_config(_dev(b), str(tuned), say=lambda *a: None)
+    assert ans["ok"]
+    on_board = json.loads((b.root / "config.json").read_text())
+    assert on_board["boat"] == {"name": "blik", "min_turn_radius_m": 8.5}  # merged, nothing lost
+    assert on_board["ntrip"] == {"enabled": False}
+    assert on_board["guidance"]["los_lookahead_gain"] == 1.4
+    assert json.loads((b.root / "config.previous.json").read_text())["boat"] == {"name": "blik"}
+    assert not (b.root / "config.upload.tmp").exists()
+
+
+def test_upload_config_refuses_bad_settings_and_outside_standby(board, tmp_path):
+    import json
+
+    from trackpilot_tools.upload_cmd import upload_config
+
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps({"boat": {"min_turn_radius_m": 0.1}}))
+    b = board()
+    with pytest.raises(DeviceError, match="min_turn_radius_m"):
+        upload_config(_dev(b), str(bad), say=lambda *a: None)
+    assert not (b.root / "config.json").exists()  # the board was not touched
+    good = tmp_path / "good.json"
+    good.write_text(json.dumps({"boat": {"min_turn_radius_m": 8.5}}))
+    b2 = board(mode="AUTO")  # the maintenance gate: STANDBY only (TRIAL too: tests/mpy/test_trial.py)
+    with pytest.raises(DeviceError):
+        upload_config(_dev(b2), str(good), say=lambda *a: None)
+    assert not (b2.root / "config.json").exists()

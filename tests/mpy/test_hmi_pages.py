@@ -118,6 +118,9 @@ def test_other_pages():
     p.render(_st("auto_right", lat_e7=-338765432, lon_e7=-1512345), 1, 0)
     T.true(text_at(buf, "S 33.8765432", 0, 47))
     T.true(text_at(buf, "W 0.1512345", 0, 56))
+    T.true(not text_at(buf, "CFG!", 128 - 4 * 8, 38))
+    p.render(_st("auto_right", gnss_cfg_failed=True), 1, 0)  # issue 12: the VALSET session failed
+    T.true(text_at(buf, "CFG!", 128 - 4 * 8, 38), "receiver configuration failure shown")
     p.render(_st("auto_right"), 2, 0)
     T.true(text_at(buf, "PILOT", 1, 1, inverted=True))
     T.true(text_at(buf, "ST  auto", 0, 20))

@@ -71,3 +71,13 @@ def test_mode_text_and_alarm_names():
     st.recovering = True
     T.eq(mode_text(st), "AUTO recov")
     T.eq(alarm_names(2 | 256), ["gnss", "e-stop"])
+
+
+def test_receiver_config_failure_travels_in_flags2():
+    # issue 12: a failed CFG-VALSET session is shown (HMI GNSS page "CFG!"), beside the Wi-Fi bits
+    st = _full()
+    st.update({"gnss_cfg_failed": True, "wifi": 3, "wifi_ap": True})
+    d = decode_status(encode_status(st))
+    T.eq((d.gnss_cfg_failed, d.wifi, d.wifi_ap, d.pilot_ok), (True, 3, True, True))
+    st.update({"gnss_cfg_failed": False})
+    T.eq(decode_status(encode_status(st)).gnss_cfg_failed, False)

@@ -521,3 +521,13 @@ def test_no_busy_wake_while_keys_are_held_back():
     r.t += 500
     r.drv.poll(r.t)
     T.true(r.drv.next_due_ms(r.t) > 0, "due now although no key may be sent")
+
+
+def test_a_turning_circle_is_not_a_hang():
+    # the commissioning trial's circle: the course kept 150 deg ahead, the boat turning 14 deg/s,
+    # more than 180 deg in one 15 s window (the window's net wrap180 once read that as going away)
+    r = _engaged_rig()
+    r.pilot.rate_dps = 14.0
+    r.run(60000, each=lambda rr: rr.drv.steer_to(150, rr.t))
+    T.eq(r.drv.hangs, 0, str([e for e in r.events if e[0] == sp.EV_HANG]))
+    T.eq(r.drv.state, sp.ENGAGED)

@@ -139,6 +139,23 @@ def _copy(src, dst):
     _rename_over(tmp, dst)
 
 
+def read_small(path, limit=8192):
+    """A small text file (the configuration) as {"ok", "text"}; text None when there is none."""
+    try:
+        with open(path) as f:
+            text = f.read(limit + 1)
+    except OSError:
+        _answer({"ok": True, "text": None})
+        return
+    except Exception as e:  # not UTF-8: the host treats it as no usable file
+        _answer({"ok": True, "text": None, "why": str(e)})
+        return
+    if len(text) > limit:
+        _answer({"ok": False, "why": "%s is larger than %d bytes" % (path, limit)})
+        return
+    _answer({"ok": True, "text": text})
+
+
 def install(tmp, dest, size, want_digest, keep=None):
     """Verify the uploaded temporary file, then put it in place.
 

@@ -109,6 +109,11 @@ class Autopilot:
         self.last_state_save_ms = None
         self.ref_lat_e7 = 0  # the boat's reference point (lever arm applied), last epoch
         self.ref_lon_e7 = 0
+        from trackpilot.core import trial
+
+        self.trial = trial.Trial(cfg.get("trial"))  # commissioning trial (docs/COMMISSIONING.md)
+        self.trial_start_e7 = (0, 0)
+        self._trial_prev = None  # (t_ms, heading_deg) of the last trial epoch
 
     # ------------------------------------------------------------------ outputs
     def event(self, kind, text):
@@ -180,6 +185,10 @@ class Autopilot:
             self.event(kind, text)
             if kind == "ALARM":
                 self.alarm_reason = text
+        if self.trial.active and self.mm.mode != M.TRIAL:  # STANDBY, a person's key, an alarm
+            self.trial.stop("mode %s" % self.mm.state_text())
+        for text in self.trial.drain_marks():
+            self.event("TRIAL", text)
 
     def on_pilot_event(self, kind, t, text):
         self.event("PILOT", "%s: %s" % (kind, text))
@@ -226,11 +235,11 @@ class Autopilot:
             self.mm.set_alarm(M.AL_LOW_BATTERY, False, text)
 
     # ------------------------------------------------------------------ the person's commands
-    def preconditions(self, t_ms):
-        """The first engage precondition that fails, or None."""
+    def preconditions(self, t_ms, need_track=True):
+        """The first engage precondition that fails, or None (a trial needs no track)."""
         if self.mm.alarms & M.AL_CONFIG and not self.mm.acked & M.AL_CONFIG:
             return "config rejected: ACK to sail on fallback"
-        if self.track is None:
+        if need_track and self.track is None:
             return "no valid track loaded"
         fix = self.fix
         if self.last_epoch_ms is None or ticks_diff(t_ms, self.last_epoch_ms) > self.gnss_stale_ms:
@@ -276,6 +285,15 @@ class Autopilot:
                 self._pilot_action = None
                 self.apply_pilot(t)
                 self.event("NAV", "joined leg %d" % self.progress.leg)
+        elif name == "TRIAL":
+            ok, why = self.mm.start_trial(t, self.preconditions(t, need_track=False), source)
+            self.refusal = why
+            if ok:
+                self.trial_start_e7 = (self.fix.lat_e7, self.fix.lon_e7)
+                self._trial_prev = None
+                self.trial.start(t, self.fix.heading_deg)
+                self._pilot_action = None
+                self.apply_pilot(t)
         elif name in ("NEXT_WP", "PREV_WP"):
             if self.progress is not None:
                 if name == "NEXT_WP":
@@ -384,6 +402,8 @@ class Autopilot:
             else:
                 self.relative_cmd_deg = wrap180(out.heading_cmd_deg - fix.heading_deg)
             self.pilot.steer_to(self.relative_cmd_deg, t_ms)
+        if mm.mode == M.TRIAL and epoch:
+            self.trial_epoch(t_ms)
         # the motor
         self.rpm_cmd = self.motor_rpm(out)
         self.motor.set_rpm(self.rpm_cmd)
@@ -392,6 +412,38 @@ class Autopilot:
         if self.last_state_save_ms is None or ticks_diff(t_ms, self.last_state_save_ms) > STATE_SAVE_MS:
             self.save_state(t_ms)
         self.wake_seatalk = True
+
+    def trial_epoch(self, t_ms):
+        """One epoch of the commissioning trial: the script decides, the pilot driver keys."""
+        from trackpilot.nav import geo
+
+        fix = self.fix
+        p = self.pilot
+        tr = self.trial
+        prev = self._trial_prev
+        rate = 0.0
+        if prev is not None and ticks_diff(t_ms, prev[0]) > 0:
+            rate = wrap180(fix.heading_deg - prev[1]) * 1000.0 / ticks_diff(t_ms, prev[0])
+        self._trial_prev = (t_ms, fix.heading_deg)
+        dist = geo.dist_bearing(self.trial_start_e7[0], self.trial_start_e7[1], fix.lat_e7, fix.lon_e7)[0]
+        err = 0.0
+        if p.course_deg is not None and p.heading_deg is not None:
+            err = wrap180(p.course_deg - p.heading_deg)
+        act = tr.step(t_ms, fix.heading_deg, fix.sog_mps if fix.vel_valid else 0.0, dist, err, rate)
+        if act is not None:
+            self.mm.end_trial(t_ms, "%s: %s" % act)
+            self.drain_events()
+            self.apply_pilot(t_ms)
+            return
+        if not p.commanding() or p.heading_deg is None:
+            return
+        if tr.lead_deg:
+            p.steer_to(tr.lead_deg, t_ms)  # the locked course kept this far ahead: full rudder
+        elif tr.course_delta_deg:
+            base = p.target_course_deg if p.target_course_deg is not None else p.course_deg
+            if base is not None:
+                p.steer_to(wrap180(base + tr.course_delta_deg - p.heading_deg), t_ms)
+        self.drain_events()
 
     def water_speed_cmd_mps(self):
         """Speed through water the motor is set for (the RPM map inverted; measured RPM if the
@@ -528,6 +580,8 @@ class Autopilot:
     def motor_rpm(self, out):
         mc = self.cfg["motor"]
         pol = self.mm.motor
+        if pol == M.MOTOR_TRACK and self.mm.mode == M.TRIAL:
+            return int(max(0, min(mc["rpm_max"], self.trial.rpm)))
         if pol == M.MOTOR_TRACK and out is not None:
             rpm = mc["rpm_offset"] + mc["rpm_per_mps"] * out.speed_cmd_mps
             if mc["sog_loop"] and self.fix.vel_valid:
@@ -577,6 +631,8 @@ class Autopilot:
         rec.alarms = self.mm.alarms
         rec.mode = self.mm.mode
         rec.guided = 1 if out is not None else 0
+        # the compass's own time (it comes at 1-2 Hz): tune fits the compass lag with it
+        rec.compass_age_ms = -1 if ps.last_heading_ms is None else ticks_diff(t_ms, ps.last_heading_ms)
         self.rec_ready = True
 
     # ------------------------------------------------------------------ SeaTalk, pilot, motor, wind

@@ -32,7 +32,8 @@ STANDBY = const(0)
 AUTO = const(1)
 ALARM = const(2)
 ESTOP = const(3)
-MODE_NAMES = ("STANDBY", "AUTO", "ALARM", "ESTOP")
+TRIAL = const(4)  # commissioning trial (trial.py): started only by a person from STANDBY
+MODE_NAMES = ("STANDBY", "AUTO", "ALARM", "ESTOP", "TRIAL")
 
 # What the pilot must do (the application turns this into ST2000+ commands).
 PILOT_LEAVE = const(0)  # touch nothing: a person has it, or we just booted
@@ -134,6 +135,8 @@ class ModeMachine:
             self._log("ALARM", "%s: %s" % (alarm_text(bit), reason))
         self.alarms |= bit
         self.acked &= ~bit  # a new occurrence sounds again
+        if self.mode == TRIAL:  # any alarm ends a trial: tiller and throttle back to the crew
+            self.end_trial(0, "aborted by alarm %s: %s" % (alarm_text(bit), reason))
 
     def clear_alarm(self, bit, reason):
         if self.alarms & bit:
@@ -192,6 +195,31 @@ class ModeMachine:
         self.pilot = PILOT_STANDBY
         self.motor = MOTOR_RELEASE if self.release_motor else MOTOR_SLOW
 
+    def start_trial(self, t_ms, refusal=None, source="HMI"):
+        """A person asks for a commissioning trial (docs/COMMISSIONING.md). Only from STANDBY,
+        with no alarm sounding. Returns (accepted, reason)."""
+        if self.estop_latched:
+            refusal = "E-stop latched: clear it first"
+        elif self.mode != STANDBY:
+            refusal = "trial only from STANDBY (now %s)" % MODE_NAMES[self.mode]
+        elif not refusal and self.sounding():
+            refusal = "alarm sounding (%s): ACK first" % alarm_text(self.sounding())
+        if refusal:
+            self._log("REFUSED", "trial from %s: %s" % (source, refusal))
+            return False, refusal
+        self._set_mode(TRIAL, "trial started by a person (%s)" % source, t_ms)
+        self.pilot = PILOT_STEER
+        self.motor = MOTOR_TRACK
+        return True, ""
+
+    def end_trial(self, t_ms, reason):
+        """The trial script ended or was aborted (limit, alarm): STANDBY, tiller free."""
+        if self.mode != TRIAL:
+            return
+        self._set_mode(STANDBY, "trial " + reason, t_ms)
+        self.pilot = PILOT_STANDBY
+        self.motor = MOTOR_RELEASE if self.release_motor else MOTOR_SLOW
+
     def ack(self, t_ms, source="HMI"):
         """Acknowledge (mute) every sounding alarm; clears alarms whose cause is gone."""
         if self.alarms & ~self.acked:
@@ -229,7 +257,7 @@ class ModeMachine:
     # ----------------------------------------------------------------- what the boat reports
     def takeover(self, t_ms, reason):
         """A person pressed a key on the pilot, or it left Auto unasked: a person wins."""
-        if self.mode in (AUTO, ALARM):
+        if self.mode in (AUTO, ALARM, TRIAL):
             self._set_mode(STANDBY, "takeover: " + reason, t_ms)
             self.raise_alarm(AL_TAKEOVER, reason)
             self.pilot = PILOT_LEAVE  # exactly as the person set it

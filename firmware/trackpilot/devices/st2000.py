@@ -551,19 +551,23 @@ class St2000:
         if self._conv_t0 is None or side != self._conv_side or src != self._conv_src:
             self._conv_t0 = t_ms
             self._conv_h0 = h
+            self._conv_moved = 0.0
             self._conv_side = side
             self._conv_src = src
             return False
+        # summed step by step: a turn of more than 180 deg in a window (a turning circle) is progress
+        self._conv_moved += side * wrap180(h - self._conv_h0)
+        self._conv_h0 = h
         dt_ms = ticks_diff(t_ms, self._conv_t0)
         if dt_ms < self.converge_window_ms:
             return False
-        moved_deg = side * wrap180(h - self._conv_h0)
+        moved_deg = self._conv_moved
         if moved_deg < self.converge_progress_deg:
             self._hang(t_ms, "heading %d not turning towards course %s: %.1f deg towards it in %d s, error %d deg" % (
                 self.heading_deg, self.course_deg, moved_deg, dt_ms // 1000, int(abs(err))))
             return True
         self._conv_t0 = t_ms  # turning well enough: next window
-        self._conv_h0 = h
+        self._conv_moved = 0.0
         return False
 
     def _hang(self, t_ms, why):

@@ -82,6 +82,7 @@ FIELDS = (
     ("alarms", 1, "bits", D1, 0),
     ("mode", 1, "", D1, 0),
     ("guided", 1, "", D1, 0),  # 1: the guidance law ran in this step (replay reruns exactly these)
+    ("compass_age_ms", 1, "ms", D0, 0),  # since the pilot's compass/rudder were received, -1 never
 )
 
 
@@ -138,6 +139,7 @@ class ControlRecord:
         self.alarms = 0
         self.mode = 0
         self.guided = 0
+        self.compass_age_ms = -1
         self.key = False
         self.offset = -1
 

@@ -28,6 +28,16 @@ def merge(base, over, where=""):
     return base
 
 
+def merge_new(base, over):
+    """Overlay `over` on `base` in place, creating sections (no check: load() checks later)."""
+    for k, v in over.items():
+        if isinstance(v, dict) and isinstance(base.get(k), dict):
+            merge_new(base[k], v)
+        else:
+            base[k] = copy.deepcopy(v)
+    return base
+
+
 def load(path=None, overrides=None):
     """Defaults (+ a partial JSON file) (+ a dict of overrides) -> parameter dict (the nominal
     boat: the "spread" section is not a parameter, see load_spread)."""

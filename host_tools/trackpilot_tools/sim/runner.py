@@ -58,7 +58,7 @@ class SimRun:
                  params=None, param_file=None, overrides=None, duration_s=None, realtime=False,
                  realtime_speed=1.0, fw_config=None, reengage_s=0.0, quiet=True,
                  stop_after_finish_s=5.0, max_xte_stop_m=80.0, fw_script=None, udp_out=None,
-                 fw_config_bytes=None, journal=False):
+                 fw_config_bytes=None, trial=False, journal=False):
         self.track_path = Path(track_path)
         self.journal = journal  # the firmware writes every input of its decision core (replay_core)
         self.udp_out = None
@@ -81,7 +81,9 @@ class SimRun:
         self.reengage_s = reengage_s
         self.quiet = quiet
         self.stop_after_finish_s = stop_after_finish_s
-        self.max_xte_stop_m = max_xte_stop_m
+        self.max_xte_stop_m = max_xte_stop_m if not trial else 1e9  # a trial sails off the track
+        self.trial = trial  # press TRIAL (commissioning trial) instead of ENGAGE; end when it ends
+        self.trial_seen = False
         if params is None:
             preset = scenarios.PRESETS.get(scenario)
             if preset is None:
@@ -262,7 +264,9 @@ class SimRun:
         sp = self.p["sim"]
         mode = self.mode or ""
         auto = mode.startswith("AUTO")
-        if auto:
+        if self.trial:
+            self._trial_tick(t_ms, mode)
+        elif auto:
             self.auto_seen = True
             self.engage_pending_since = None
             self.left_auto_ms = None
@@ -283,6 +287,24 @@ class SimRun:
                     self.engage_tries += 1
                     self.send_input(t_ms, "button=ENGAGE")
         self.sched.at(t_us + 250_000, self._scenario_tick)
+
+    def _trial_tick(self, t_ms, mode):
+        """The person at the HMI presses TRIAL once ready; the run ends when the trial has ended."""
+        sp = self.p["sim"]
+        if mode.startswith("TRIAL"):
+            self.trial_seen = True
+            return
+        if self.trial_seen:
+            if self.finished_ms is None:
+                self.finished_ms = t_ms
+            return
+        ready = (self.f9p.quality == "fixed" and self.f9p.heading_valid and self.pilot.started
+                 and mode.startswith("STANDBY") and t_ms >= sp["engage_delay_s"] * 1000)
+        if ready and self.engage_tries < sp["engage_max_tries"]:
+            if self.engage_pending_since is None or t_ms - self.engage_pending_since >= sp["engage_retry_s"] * 1000:
+                self.engage_pending_since = t_ms
+                self.engage_tries += 1
+                self.send_input(t_ms, "button=TRIAL")
 
     # ------------------------------------------------------------------ faults
     def _fault(self, t_us, name, on, dur_s):
@@ -326,6 +348,8 @@ class SimRun:
             self.send_input(t_ms, "button=STANDBY")
         elif name == "button_engage":
             self.send_input(t_ms, "button=ENGAGE")
+        elif name == "button_trial":
+            self.send_input(t_ms, "button=TRIAL")
         elif name == "button_ack":
             self.send_input(t_ms, "button=ACK")
         elif name == "remote_key_echo":

@@ -46,6 +46,7 @@ FAULTS = {
     "reset": (False, "the firmware restarts (process restarted with the same data dir)"),
     "button_standby": (False, "STANDBY pressed on the HMI"),
     "button_engage": (False, "ENGAGE pressed on the HMI"),
+    "button_trial": (False, "TRIAL (commissioning trial) asked on the HMI"),
 }
 
 

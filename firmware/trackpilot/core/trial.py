@@ -1,0 +1,245 @@
+"""Commissioning trial: the scripted manoeuvres that `trackpilot tune` identifies the boat from.
+
+Pure logic (no I/O, no clock): the application starts it (only on a person's TRIAL command from
+STANDBY, through the mode machine) and calls `step` once per control epoch with the time and what
+the boat measures; it answers with what the pilot and the motor must do and queues event marks
+(`drain_marks`) that the log keeps as TRIAL events. docs/COMMISSIONING.md is the crew's procedure.
+
+The script (each phase logged "TRIAL <phase> start/end ..." with its own numbers):
+    speed     rpm_low; at rpm_high after a 180 deg course change (the boat comes back)
+    straight  rpm_low, no keys for `straight_s`: compass offset, crab angle, current, RPM -> speed
+    steps     at rpm_low, then rpm_high: settle the speed, then course steps of STEPS_DEG by keystroke in the
+              pilot's Auto, each held until the heading settles (or `step_max_s`)
+    zigzag    after the steps at each speed: the locked course 2 x `zigzag_deg` to one side of the base course,
+              switched to the other side when the heading passes `zigzag_deg` (a course
+              just `zigzag_deg` off would be reached only asymptotically), `zigzag_legs` legs
+    circle    at rpm_high: the locked course kept `circle_lead_deg` ahead of the compass
+              (full rudder) for `circle_turns` turns to starboard, then to port
+Limits (any one ends the trial and sends the boat to STANDBY): `max_distance_m` from the start
+point, `max_duration_s`, water speed below `min_speed_mps` for `min_speed_grace_s` once under
+way, any alarm (the mode machine aborts TRIAL on any alarm by itself).
+
+Usage:
+    tr = Trial(cfg["trial"])
+    tr.start(t_ms, heading_deg)
+    act = tr.step(t_ms, heading_deg, sog_mps, dist_m, pilot_err_deg)
+    # act: None (go on) or ("end", reason) / ("abort", reason)
+    tr.rpm, tr.course_delta_deg (a step of the locked course to send once, then 0), tr.lead_deg
+    for text in tr.drain_marks(): log("TRIAL", text)
+"""
+from trackpilot.compat import ticks_diff, wrap180
+
+STEPS_DEG = (10, -10, 20, -20)
+
+DEFAULTS = {
+    "rpm_low": 600,
+    "rpm_high": 1000,
+    "straight_s": 45,
+    "speed_settle_s": 12,
+    "step_settle_s": 4,
+    "step_max_s": 25,
+    "settle_err_deg": 3.0,
+    "settle_rate_dps": 1.5,
+    "zigzag_deg": 10,
+    "zigzag_legs": 5,
+    "zigzag_max_s": 90,
+    "circle_lead_deg": 150,
+    "circle_turns": 2,
+    "circle_max_s": 90,
+    "max_distance_m": 600.0,
+    "max_duration_s": 600,
+    "min_speed_mps": 0.5,
+    "min_speed_grace_s": 10,
+}
+
+# phases
+P_STRAIGHT = 0
+P_SPEED = 1
+P_STEP = 2
+P_ZIGZAG = 3
+P_CIRCLE = 4
+P_DONE = 5
+PHASE_NAMES = ("straight", "speed", "step", "zigzag", "circle", "done")
+
+
+def trial_config(cfg):
+    """The trial section with defaults filled in (unknown keys are the config schema's business)."""
+    out = dict(DEFAULTS)
+    if cfg:
+        out.update(cfg)
+    return out
+
+
+class Trial:
+    def __init__(self, cfg=None):
+        c = trial_config(cfg)
+        self.c = c
+        self.rpms = (int(c["rpm_low"]), int(c["rpm_high"]))
+        self.active = False
+        self.rpm = 0
+        self.course_delta_deg = 0  # locked-course change to send now (consumed by the app)
+        self.lead_deg = 0  # >0/<0: keep the locked course this far ahead of the compass (circle)
+        self._marks = []
+        self.phase = P_DONE
+        self.result = ""
+
+    # ---------------------------------------------------------------- helpers
+    def _mark(self, text):
+        if len(self._marks) < 16:
+            self._marks.append(text)
+
+    def drain_marks(self):
+        m = self._marks
+        self._marks = []
+        return m
+
+    def _enter(self, phase, t_ms, text=""):
+        self.phase = phase
+        self.phase_t = t_ms
+        self.settled_since = None
+        self._mark("%s start%s" % (PHASE_NAMES[phase], (" " + text) if text else ""))
+
+    # ---------------------------------------------------------------- control
+    def start(self, t_ms, heading_deg):
+        """Begin the script (the mode machine has accepted a person's TRIAL command)."""
+        self.active = True
+        self.t0 = t_ms
+        self.rpm_i = 0
+        self.step_i = 0
+        self.rpm = int(self.rpms[0])
+        self.course_delta_deg = 0
+        self.lead_deg = 0
+        self.slow_since = None
+        self.rate_f = 0.0
+        self.base_deg = heading_deg
+        self.result = ""
+        self._mark("begin rpms=%d,%d heading=%.1f" % (self.rpms[0], self.rpms[1], heading_deg))
+        self._enter(P_SPEED, t_ms, "rpm=%d" % self.rpm)
+
+    def stop(self, reason):
+        """Ended from outside (STANDBY, a person's key, an alarm): nothing more is commanded."""
+        if self.active:
+            self.active = False
+            self.lead_deg = 0
+            self.course_delta_deg = 0
+            self.result = "stopped: " + reason
+            self._mark("end stopped: %s" % reason)
+
+    def _finish(self, kind, reason):
+        self.active = False
+        self.lead_deg = 0
+        self.course_delta_deg = 0
+        self.phase = P_DONE
+        self.result = "%s: %s" % (kind, reason)
+        self._mark("end %s: %s" % (kind, reason))
+        return (kind, reason)
+
+    def _settled(self, t_ms, pilot_err_deg, hold_s):
+        c = self.c
+        if abs(pilot_err_deg) <= c["settle_err_deg"] and abs(self.rate_f) <= c["settle_rate_dps"]:
+            if self.settled_since is None:
+                self.settled_since = t_ms
+            return ticks_diff(t_ms, self.settled_since) >= hold_s * 1000
+        self.settled_since = None
+        return False
+
+    def step(self, t_ms, heading_deg, sog_mps, dist_m, pilot_err_deg, rate_dps):
+        """One control epoch. heading_deg: true (GNSS) heading; pilot_err_deg: locked course -
+        pilot compass; rate_dps: yaw rate. Returns None, or ("end"|"abort", reason) once."""
+        if not self.active:
+            return None
+        c = self.c
+        self.course_delta_deg = 0
+        self.rate_f += (rate_dps - self.rate_f) * 0.1  # ~2 s at 5 Hz: wave yaw is not turning
+        el_s = ticks_diff(t_ms, self.t0) / 1000.0
+        if el_s > c["max_duration_s"]:
+            return self._finish("abort", "longer than %d s" % c["max_duration_s"])
+        if dist_m > c["max_distance_m"]:
+            return self._finish("abort", "%.0f m from the start (limit %.0f m)" % (dist_m, c["max_distance_m"]))
+        if el_s > c["min_speed_grace_s"] and sog_mps < c["min_speed_mps"]:
+            if self.slow_since is None:
+                self.slow_since = t_ms
+            elif ticks_diff(t_ms, self.slow_since) > c["min_speed_grace_s"] * 1000:
+                return self._finish("abort", "speed %.2f m/s below %.2f m/s" % (sog_mps, c["min_speed_mps"]))
+        else:
+            self.slow_since = None
+        in_s = ticks_diff(t_ms, self.phase_t) / 1000.0
+        ph = self.phase
+        if ph == P_SPEED:
+            # the second speed starts with a turn back (keeps the trial within a few hundred
+            # metres): it ends once the heading has settled on the reversed course, at most 45 s
+            # (the pilot's auto-trim winds up in the long full-rudder turn and unwinds slowly)
+            turned = self.rpm_i == 0 or self._settled(t_ms, pilot_err_deg, c["step_settle_s"]) or in_s >= 45
+            if in_s >= c["speed_settle_s"] and turned:
+                self._mark("speed end rpm=%d sog=%.2f" % (self.rpm, sog_mps))
+                if self.rpm_i == 0 and self.step_i == 0:
+                    self._enter(P_STRAIGHT, t_ms, "rpm=%d heading=%.1f" % (self.rpm, heading_deg))
+                else:
+                    self._begin_step(t_ms, heading_deg)
+        elif ph == P_STRAIGHT:
+            if in_s >= c["straight_s"]:
+                self._mark("straight end sog=%.2f" % sog_mps)
+                self._begin_step(t_ms, heading_deg)
+        elif ph == P_STEP:
+            if self._settled(t_ms, pilot_err_deg, c["step_settle_s"]) or in_s >= c["step_max_s"]:
+                self._mark("step end %s after %.1f s" % (
+                    "settled" if in_s < c["step_max_s"] else "NOT settled", in_s))
+                self.step_i += 1
+                if self.step_i < len(STEPS_DEG):
+                    self._begin_step(t_ms, heading_deg)
+                else:
+                    self.step_i = 0
+                    self.base_deg = heading_deg
+                    self.zz_side = 1
+                    self.zz_leg = 1
+                    self.course_delta_deg = 2 * c["zigzag_deg"]
+                    self._enter(P_ZIGZAG, t_ms, "deg=%d base=%.1f rpm=%d" % (c["zigzag_deg"], heading_deg, self.rpm))
+        elif ph == P_ZIGZAG:
+            off = wrap180(heading_deg - self.base_deg)
+            if self.zz_side * off >= c["zigzag_deg"]:
+                if self.zz_leg >= c["zigzag_legs"]:
+                    self.course_delta_deg = -self.zz_side * 2 * c["zigzag_deg"]  # back to the base
+                    self._mark("zigzag end legs=%d" % self.zz_leg)
+                    self._after_zigzag(t_ms)
+                else:
+                    self.zz_side = -self.zz_side
+                    self.zz_leg += 1
+                    self.course_delta_deg = 4 * self.zz_side * c["zigzag_deg"]
+                    self._mark("zigzag switch %+d at %.1f" % (self.zz_side * c["zigzag_deg"], heading_deg))
+            elif in_s >= c["zigzag_max_s"]:
+                self._mark("zigzag end timeout legs=%d" % self.zz_leg)
+                self._after_zigzag(t_ms)
+        elif ph == P_CIRCLE:
+            d = 0.0 if self.circ_prev is None else wrap180(heading_deg - self.circ_prev)
+            self.circ_prev = heading_deg
+            self.circ_turned += d * self.circ_dir
+            if self.circ_turned >= 360.0 * c["circle_turns"] or in_s >= c["circle_max_s"]:
+                self._mark("circle end dir=%+d turned=%.0f in %.1f s" % (self.circ_dir, self.circ_turned, in_s))
+                if self.circ_dir > 0:
+                    self._begin_circle(t_ms, -1)
+                else:
+                    return self._finish("end", "complete in %.0f s" % el_s)
+        return None
+
+    def _begin_step(self, t_ms, heading_deg):
+        d = STEPS_DEG[self.step_i]
+        self.course_delta_deg = d
+        self._enter(P_STEP, t_ms, "%+d rpm=%d heading=%.1f" % (d, self.rpm, heading_deg))
+
+    def _after_zigzag(self, t_ms):
+        """The zig-zag at each speed (T = T' L / u changes with speed, the rudder's flow lag does
+        not: two speeds tell them apart); after the first, the turn back and the second speed."""
+        self.rpm_i += 1
+        if self.rpm_i < len(self.rpms):
+            self.rpm = int(self.rpms[self.rpm_i])
+            self.course_delta_deg += 180
+            self._enter(P_SPEED, t_ms, "rpm=%d turn=180" % self.rpm)
+        else:
+            self._begin_circle(t_ms, 1)
+
+    def _begin_circle(self, t_ms, direction):
+        self.circ_dir = direction
+        self.circ_turned = 0.0
+        self.lead_deg = direction * self.c["circle_lead_deg"]
+        self._enter(P_CIRCLE, t_ms, "dir=%+d lead=%d rpm=%d" % (direction, self.c["circle_lead_deg"], self.rpm))
+        self.circ_prev = None

@@ -1,0 +1,165 @@
+"""How well `trackpilot tune` recovers a boat: simulated trials on boats drawn from the robust
+bench's spreads (sim/boat_params.json "spread"), the true parameters hidden from the fit, then the
+fit's values against them.
+
+Usage: python -m trackpilot_tools.tune_bench N [--first SEED] [--out DIR]
+Writes DIR/tune_bench.json (one row per boat) and prints the error table.
+"""
+import argparse
+import json
+import math
+import sys
+from pathlib import Path
+
+from trackpilot_tools.mpy import ROOT
+
+TRACK = ROOT / "tracks" / "middelburg_loop.csv"
+
+
+def truth_of(p):
+    """The true values the fit should find (the simulator's own parameters)."""
+    b, pl = p["boat"], p["pilot"]
+    return {"k_prime": b["k_prime"], "t_prime": b["t_prime"], "compass_lag_s": pl["compass_lag_s"],
+            "rudder_limit_deg": pl["rudder_limit_deg"], "length_m": b["length_m"]}
+
+
+def one_boat(seed, out_dir):
+    """Sail the trial on boat `seed`, fit it; a row of fitted vs true values."""
+    from trackpilot_tools.sim import params as pm
+    from trackpilot_tools.sim.runner import SimRun
+
+    spread = pm.load_spread()
+    over, flat = pm.draw_spread(seed, spread, pm.load())
+    out = Path(out_dir) / ("boat%03d" % seed)
+    run = SimRun(TRACK, out, seed=seed, scenario="calm", overrides=over, duration_s=900, trial=True)
+    run.run()
+    row = {"seed": seed, "drawn": flat, "sim_stop": run.stop_reason}
+    return fit_boat(row, out, run.p)
+
+
+def fit_boat(row, out, params):
+    """Fit the trial log in `out` (fw/log) and compare with the simulator's parameters."""
+    from trackpilot_tools import logdecode
+    from trackpilot_tools import tune_fit as F
+
+    truth = truth_of(params)
+    row["truth"] = truth
+    try:
+        d = logdecode.decode_files(sorted((out / "fw" / "log").glob("*.tpl")))
+        fit = F.fit_all(d)
+    except F.TuneError as e:
+        row["refused"] = str(e)
+        return row
+    row["trial_s"] = fit["trial"]["duration_s"]
+    n, c, ci = fit["nomoto"], fit["compass"], fit["circle"]
+    row["fit"] = {"k_prime": n["k_prime"], "t_prime": n["t_prime"], "compass_lag_s": c["lag_s"],
+                  "radius_m": ci["radius_m"], "rudder_deg": ci["rudder_deg"]}
+    row["sd"] = {"k_prime": n["k_prime_sd"], "t_prime": n["t_prime_sd"], "compass_lag_s": c["lag_sd_s"],
+                 "radius_m": ci["radius_sd_m"]}
+    # the minimum radius the pilot really sails: the circle at the rudder it gave
+    row["truth"]["rudder_lag_s"] = params["boat"]["rudder_lag_s"]
+    row["fit"]["rudder_lag_s"] = n["rudder_lag_s"]
+    row["truth"]["radius_m"] = truth["length_m"] / (truth["k_prime"] * ci["rudder_deg"] * math.pi / 180.0)
+    row["refusals"] = fit["problems"]
+    (Path(out) / "tune_config.json").write_text(json.dumps(fit["config"], indent=1))
+    return row
+
+
+def table(rows):
+    ok = [r for r in rows if "fit" in r]
+    lines = ["boats: %d, fitted: %d, refused: %d" % (len(rows), len(ok), len(rows) - len(ok))]
+    if not ok:
+        return "\n".join(lines)
+    def errs(key, rel):
+        out = []
+        for r in ok:
+            f, t = r["fit"][key], r["truth"][key]
+            out.append(abs(f - t) / abs(t) if rel else abs(f - t))
+        out.sort()
+        return out
+    for key, rel, goal in (("k_prime", True, 0.15), ("t_prime", True, 0.15), ("radius_m", False, 1.0),
+                           ("compass_lag_s", False, 0.15)):
+        e = errs(key, rel)
+        med = e[len(e) // 2]
+        p90 = e[min(len(e) - 1, int(0.9 * len(e)))]
+        within = sum(1 for x in e if x <= goal)
+        unit = "%" if rel else ""
+        k = 100.0 if rel else 1.0
+        lines.append("%-14s |error| median %.3g%s, p90 %.3g%s, worst %.3g%s; within %g%s: %d/%d" % (
+            key, med * k, unit, p90 * k, unit, e[-1] * k, unit, goal * k, unit, within, len(e)))
+    dur = [r["trial_s"] for r in ok]
+    lines.append("trial duration: %.0f-%.0f s" % (min(dur), max(dur)))
+    return "\n".join(lines)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(prog="tune_bench")
+    ap.add_argument("n", type=int)
+    ap.add_argument("--first", type=int, default=1)
+    ap.add_argument("--out", default="tune_bench_out")
+    ap.add_argument("--refit", action="store_true",
+                    help="fit the trials already sailed in --out again (after a change of the fit)")
+    ap.add_argument("--compare", action="store_true",
+                    help="sail the accepted boats (tune_refit.json) with the tuned and the default configuration")
+    args = ap.parse_args(argv)
+    rows = []
+    if args.compare:
+        fits = json.loads((Path(args.out) / "tune_refit.json").read_text())
+        seeds = [r["seed"] for r in fits if "fit" in r and not r.get("refusals")]
+        res = compare_configs(args.out, seeds)
+        for name in ("default", "tuned"):
+            for k in ("rms_m", "p95_m", "max_m"):
+                v = sorted(r[name][k] for r in res if r[name][k] is not None)
+                if v:
+                    print("%-8s %-6s median %.2f  p90 %.2f  worst %.2f m" % (
+                        name, k, v[len(v) // 2], v[min(len(v) - 1, int(0.9 * len(v)))], v[-1]))
+        return 0
+    if args.refit:
+        for d in sorted(Path(args.out).glob("boat[0-9][0-9][0-9]")):
+            if not (d / "sim_params.json").is_file() or not list((d / "fw" / "log").glob("*.tpl")):
+                continue
+            row = fit_boat({"seed": int(d.name[4:])}, d, json.loads((d / "sim_params.json").read_text()))
+            rows.append(row)
+            print(json.dumps({k: row.get(k) for k in ("seed", "fit", "truth", "refused", "refusals")}), flush=True)
+        (Path(args.out) / "tune_refit.json").write_text(json.dumps(rows, indent=1))
+        print(table(rows))
+        return 0
+    Path(args.out).mkdir(parents=True, exist_ok=True)
+    for seed in range(args.first, args.first + args.n):
+        row = one_boat(seed, args.out)
+        rows.append(row)
+        print(json.dumps({k: row.get(k) for k in ("seed", "fit", "truth", "refused")}), flush=True)
+        (Path(args.out) / "tune_bench.json").write_text(json.dumps(rows, indent=1))
+    print(table(rows))
+    return 0
+
+
+
+def compare_configs(out_dir, seeds):
+    """Sail the TRUE boat of each bench boat with tune's configuration and with the defaults
+    (los): truth xte RMS / p95 / max of each. python -m trackpilot_tools.tune_bench 0 --compare
+    --out DIR (uses DIR/tune_refit.json: the boats tune accepted)."""
+    from trackpilot_tools.sim import report
+    from trackpilot_tools.sim.runner import SimRun
+
+    rows = []
+    for seed in seeds:
+        d = Path(out_dir) / ("boat%03d" % seed)
+        params = json.loads((d / "sim_params.json").read_text())
+        cfg = json.loads((d / "tune_config.json").read_text())
+        row = {"seed": seed}
+        for name, fw in (("default", {}), ("tuned", cfg)):
+            run = SimRun(TRACK, d / ("sail_" + name), seed=seed, params=json.loads(json.dumps(params)),
+                         fw_config=fw)
+            res = run.run()
+            summ = report.summarize_run(res, {"track": str(TRACK), "law": "los", "scenario": "bench", "seed": seed})
+            t = summ.get("truth_xte_vs_track") or {}
+            row[name] = {k: t.get(k) for k in ("rms_m", "p95_m", "max_m")}
+        rows.append(row)
+        print(json.dumps(row), flush=True)
+    (Path(out_dir) / "tune_compare.json").write_text(json.dumps(rows, indent=1))
+    return rows
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,99 @@
+"""End to end: the firmware sails a commissioning trial against the simulated boat, `trackpilot
+tune` fits it, `trackpilot sim --boat` sails the fitted boat with the tuned configuration; and
+tune's refusals on logs without a complete trial."""
+import json
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+
+from trackpilot_tools import cli  # noqa: E402
+from trackpilot_tools.sim.runner import SimRun  # noqa: E402
+
+pytestmark = pytest.mark.mpy  # runs the firmware under $MICROPYTHON
+
+TRACK = ROOT / "tracks" / "middelburg_loop.csv"
+
+
+def _trial(out, **kw):
+    run = SimRun(TRACK, out, seed=3, scenario="calm", duration_s=kw.pop("duration_s", 700), trial=True, **kw)
+    run.run()
+    return run, sorted((out / "fw" / "log").glob("*.tpl"))
+
+
+def _cli(argv):
+    try:
+        return cli.main(argv)
+    except SystemExit as e:
+        return e.code
+
+
+@pytest.fixture(scope="module")
+def trial_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("trial")
+    run, logs = _trial(out)
+    return run, logs
+
+
+def test_trial_tune_sim(trial_run, tmp_path, capsys):
+    run, logs = trial_run
+    assert run.trial_seen and run.stop_reason == "finished", run.stop_reason
+    rc = _cli(["tune", *map(str, logs), "--out", str(tmp_path / "tune"), "--no-plots"])
+    assert rc == 0, capsys.readouterr().err
+    fit = json.loads((tmp_path / "tune" / "fit.json").read_text())
+    truth = run.p
+    assert fit["nomoto"]["k_prime"] == pytest.approx(truth["boat"]["k_prime"], rel=0.15)
+    assert fit["nomoto"]["t_prime"] == pytest.approx(truth["boat"]["t_prime"], rel=0.15)
+    assert fit["compass"]["lag_s"] == pytest.approx(truth["pilot"]["compass_lag_s"], abs=0.15)
+    assert fit["trial"]["duration_s"] <= 600
+    cfg = json.loads((tmp_path / "tune" / "config.json").read_text())
+    assert cfg["boat"]["min_turn_radius_m"] > 5
+    # the simulator sails the fitted boat with the tuned configuration
+    rc = _cli(["sim", str(TRACK), "--boat", str(tmp_path / "tune" / "fit.json"),
+               "--fw-config", str(tmp_path / "tune" / "config.json"), "--duration-s", "150",
+               "--out", str(tmp_path / "sim"), "--no-plots"])
+    assert rc == 0
+    params = json.loads((tmp_path / "sim" / "sim_params.json").read_text())
+    assert params["boat"]["k_prime"] == pytest.approx(fit["nomoto"]["k_prime"], rel=1e-3)
+    assert params["pilot"]["compass_lag_s"] == pytest.approx(fit["compass"]["lag_s"], abs=1e-3)
+    summ = json.loads((tmp_path / "sim" / "summary.json").read_text())
+    text = json.dumps(summ)
+    assert "AUTO" in text
+
+
+def test_tune_refuses_a_cut_trial(trial_run, tmp_path, capsys):
+    """A log cut before the trial's end: a plain one-line refusal naming the cause, nothing written."""
+    from trackpilot_tools import logdecode
+
+    run, logs = trial_run
+    data = b"".join(p.read_bytes() for p in logs)
+    d = logdecode.decode_files(logs)
+    end = [e for e in d.events if e.kind == "TRIAL" and e.text.startswith("end")][0]
+    cut = tmp_path / "cut.tpl"
+    cut.write_bytes(data[:end.offset])
+    rc = _cli(["tune", str(cut), "--out", str(tmp_path / "t")])
+    err = capsys.readouterr().err
+    assert rc == 2
+    assert "did not complete" in err and "Traceback" not in err
+    assert not (tmp_path / "t").exists()
+
+
+def test_tune_refuses_a_log_without_trial(tmp_path, capsys):
+    out = tmp_path / "auto"
+    run = SimRun(TRACK, out, seed=1, scenario="calm", duration_s=40)
+    run.run()
+    logs = sorted((out / "fw" / "log").glob("*.tpl"))
+    rc = _cli(["tune", *map(str, logs), "--out", str(tmp_path / "t")])
+    err = capsys.readouterr().err
+    assert rc == 2
+    assert "no commissioning trial" in err
+
+
+def test_sim_boat_bad_file_is_a_plain_error(tmp_path, capsys):
+    bad = tmp_path / "fit.json"
+    bad.write_text("{}")
+    rc = _cli(["sim", str(TRACK), "--boat", str(bad), "--out", str(tmp_path / "s")])
+    assert rc == 2
+    assert "no sim_params" in capsys.readouterr().err

@@ -1,0 +1,133 @@
+"""tune's fits on synthetic responses with known answers (no firmware, no simulator)."""
+import math
+
+import numpy as np
+import pytest
+
+from trackpilot_tools import tune_fit as F
+
+D2R = math.pi / 180.0
+
+
+def _synthetic(kp=1.1, tp=0.45, lag=0.2, comp_lag=0.6, comp_off=3.0, L=5.0, cur=(0.15, -0.1),
+               noise_deg=0.3, seed=0, rudder_available=True):
+    """A boat obeying the Nomoto model exactly: steps, a zig-zag and two circles of rudder; the
+    pilot's compass a lagged true heading read at 2 Hz; GNSS at 5 Hz."""
+    rng = np.random.default_rng(seed)
+    dt = 0.01
+    t = np.arange(0.0, 330.0, dt)
+    rud = np.zeros_like(t)
+    segs = []
+    # steps: rudder pulses; zig-zag: alternating; circles: +-28 deg
+    for i, t0 in enumerate(range(10, 150, 14)):
+        m = (t >= t0) & (t < t0 + 3)
+        rud[m] = (8 + 2 * i) * (1 if i % 2 == 0 else -1)
+    for i, t0 in enumerate(range(150, 200, 6)):
+        rud[(t >= t0) & (t < t0 + 6)] = 12 * (1 if i % 2 == 0 else -1)
+    rud[(t >= 200) & (t < 260)] = 28
+    rud[(t >= 265) & (t < 325)] = -28
+    # the ram moves at 10 deg/s
+    ram = np.zeros_like(rud)
+    for k in range(1, len(t)):
+        ram[k] = ram[k - 1] + np.clip(rud[k] - ram[k - 1], -10 * dt, 10 * dt)
+    u = np.where(t < 80, 1.5, 2.5)
+    de = r = psi = 0.0
+    psis = np.zeros_like(t)
+    for k in range(len(t)):
+        psis[k] = psi
+        K, T = kp * u[k] / L, tp * L / u[k]
+        de += (ram[k] - de) * (dt / lag if lag > 0 else 1.0)
+        r += (K * de - r) * dt / T
+        psi += r * dt
+    comp = np.zeros_like(t)
+    c = psis[0]
+    for k in range(len(t)):
+        c += (psis[k] - c) * dt / comp_lag
+        comp[k] = c
+    h = psis * D2R
+    ve = u * np.sin(h) + cur[0]
+    vn = u * np.cos(h) + cur[1]
+    ig = np.arange(0, len(t), 20)  # 5 Hz GNSS
+    tg = t[ig]
+    read_t = np.floor(tg / 0.5) * 0.5  # the compass read at 2 Hz
+    ir = np.clip(np.round(read_t / dt).astype(int), 0, len(t) - 1)
+    a = {
+        "t": tg,
+        "heading": psis[ig] + rng.normal(0, noise_deg, len(ig)),
+        "heading_ok": np.ones(len(ig), bool),
+        "vel_ok": np.ones(len(ig), bool),
+        "sog": np.hypot(ve[ig], vn[ig]),
+        "cog": np.degrees(np.arctan2(ve[ig], vn[ig])) % 360.0,
+        "compass": np.round(comp[ir] + comp_off) % 360.0,
+        "compass_age_ms": np.round((tg - read_t) * 1000.0),
+        "locked": np.zeros(len(ig)),
+        "rudder": np.round(ram[ir]) if rudder_available else np.zeros(len(ig)),
+        "rpm_set": np.where(tg < 80, 600, 1000),
+        "rpm": np.where(tg < 80, 600, 1000),
+    }
+    segs = [("straight", 2.0, 10.0, {}), ("speed", 78.0, 85.0, {})]
+    segs.append(("speed", 0.0, 2.0, {}))
+    segs.sort(key=lambda s: s[1])
+    segs += [("step", float(t0), float(t0 + 14), {"rpm": 600.0 if t0 < 80 else 1000.0, "delta": 10.0})
+             for t0 in range(10, 150, 14)]
+    segs += [("zigzag", 150.0, 200.0, {"deg": 10.0, "base": 0.0}),
+             ("circle", 200.0, 262.0, {"dir": 1.0, "turned": 720.0}),
+             ("circle", 265.0, 327.0, {"dir": -1.0, "turned": 720.0})]
+    return {"t0": 0.0, "t1": 329.0, "segments": segs, "a": a}
+
+
+def test_nomoto_recovers_known_constants():
+    tr = _synthetic()
+    cur = F.fit_current(tr)
+    u = F.water_speed(tr, cur)
+    n = F.fit_nomoto(tr, u, 5.0, gnss_latency_s=0.0)
+    assert n["k_prime"] == pytest.approx(1.1, rel=0.03)
+    assert n["t_prime"] == pytest.approx(0.45, rel=0.06)
+    assert n["rudder_lag_s"] == pytest.approx(0.2, abs=0.06)
+    # the stated uncertainty covers the error
+    assert abs(n["k_prime"] - 1.1) < 3 * n["k_prime_sd"] + 0.01
+
+
+def test_current_and_speed_map():
+    tr = _synthetic(cur=(0.2, 0.05))
+    cur = F.fit_current(tr)
+    assert cur["east_mps"] == pytest.approx(0.2, abs=0.01)
+    assert cur["north_mps"] == pytest.approx(0.05, abs=0.01)
+    u = F.water_speed(tr, cur)
+    sm = F.fit_speed_map(tr, u)
+    assert sm["rpm"] == [600, 1000]
+    assert sm["speed_mps"][0] == pytest.approx(1.5, abs=0.03)
+    assert sm["speed_mps"][1] == pytest.approx(2.5, abs=0.03)
+
+
+def test_compass_lag_and_offset():
+    tr = _synthetic(comp_lag=0.6, comp_off=3.0)
+    c = F.fit_compass(tr, gnss_latency_s=0.0)
+    assert c["lag_s"] == pytest.approx(0.6, abs=0.05)
+    assert c["offset_deg"] == pytest.approx(3.0, abs=0.3)
+
+
+def test_turning_radius_from_the_circle():
+    tr = _synthetic(kp=1.1)
+    cur = F.fit_current(tr)
+    u = F.water_speed(tr, cur)
+    n = F.fit_nomoto(tr, u, 5.0, gnss_latency_s=0.0)
+    c = F.fit_circle(tr, u, n)
+    # steady turn: R = L / (K' rudder)
+    assert c["radius_m"] == pytest.approx(5.0 / (1.1 * 28 * D2R), abs=0.2)
+
+
+def test_no_rudder_reported_is_refused():
+    tr = _synthetic(rudder_available=False)
+    cur = F.fit_current(tr)
+    with pytest.raises(F.TuneError, match="rudder"):
+        F.fit_nomoto(tr, F.water_speed(tr, cur))
+
+
+def test_phase_margin_and_derived_lookahead():
+    pm, w = F.phase_margin_deg(2.0, 1.0, 0.0)
+    x = w * 1.0
+    assert 2.0 * x * math.sqrt(1 + x * x) == pytest.approx(1.0, rel=1e-3)  # |L| = 1 at crossover
+    assert pm == pytest.approx(90 - math.degrees(math.atan(x)), abs=0.1)
+    pm_d, _ = F.phase_margin_deg(2.0, 1.0, 0.5)
+    assert pm_d < pm

@@ -1,0 +1,167 @@
+# Commissioning trial: the mode (never by itself, a person wins, alarms end it) and the script
+# (phases in order, limits abort it), under the MicroPython unix port.
+from tpassert import eq, true
+from trackpilot.core import modes as M
+from trackpilot.core import trial as T
+
+
+def test_trial_mode_only_by_a_person_from_standby():
+    mm = M.ModeMachine()
+    # the mode machine has no path into TRIAL but start_trial: boot, GNSS, pilot events never start it
+    mm.gnss_quality(0, True)
+    mm.pilot_recovered(10)
+    mm.takeover(20, "key")
+    eq(mm.mode, M.STANDBY)
+    ok, why = mm.start_trial(30, None, "HMI")
+    true(ok, why)
+    eq(mm.mode, M.TRIAL)
+    eq(mm.pilot, M.PILOT_STEER)
+    ev = mm.drain_events()
+    true(any(k == "MODE" and "trial started by a person (HMI)" in t for k, t in ev), ev)
+
+
+def test_trial_refused_outside_standby_and_with_alarm():
+    mm = M.ModeMachine()
+    mm.engage(0, None, "HMI")
+    ok, why = mm.start_trial(10, None, "HMI")
+    true(not ok)
+    true("only from STANDBY" in why, why)
+    eq(mm.mode, M.AUTO)
+    mm = M.ModeMachine()
+    mm.set_alarm(M.AL_LOW_BATTERY, True, "11.0 V")
+    ok, why = mm.start_trial(10, None, "HMI")
+    true(not ok and "ACK" in why, why)
+    ok, why = mm.start_trial(10, "no GNSS position", "HMI")  # the app's preconditions
+    true(not ok and "GNSS" in why, why)
+    mm = M.ModeMachine()
+    mm.estop(0, True)
+    ok, why = mm.start_trial(10, None, "HMI")
+    true(not ok and "E-stop" in why, why)
+
+
+def test_standby_and_person_key_end_trial():
+    mm = M.ModeMachine()
+    mm.start_trial(0, None, "HMI")
+    mm.standby(10, "remote")
+    eq(mm.mode, M.STANDBY)
+    eq(mm.pilot, M.PILOT_STANDBY)
+    mm.start_trial(20, None, "HMI")
+    mm.takeover(30, "person pressed -10")
+    eq(mm.mode, M.STANDBY)
+    eq(mm.pilot, M.PILOT_LEAVE)  # exactly as the person set it
+    true(mm.alarms & M.AL_TAKEOVER)
+
+
+def test_any_alarm_aborts_trial():
+    for bit in (M.AL_GNSS, M.AL_MOTOR_LINK, M.AL_SEATALK, M.AL_LOW_BATTERY, M.AL_PILOT_LOST):
+        mm = M.ModeMachine()
+        mm.start_trial(0, None, "HMI")
+        mm.raise_alarm(bit, "test")
+        eq(mm.mode, M.STANDBY)
+        eq(mm.pilot, M.PILOT_STANDBY)
+        ev = mm.drain_events()
+        true(any(k == "MODE" and "aborted by alarm" in t for k, t in ev), ev)
+    mm = M.ModeMachine()
+    mm.start_trial(0, None, "HMI")
+    mm.gnss_quality(100, False, "RTK lost")
+    eq(mm.mode, M.STANDBY)
+
+
+class _Boat:
+    """A crude closed loop for the script: the heading follows the locked course (first order)."""
+
+    def __init__(self):
+        self.heading = 90.0
+        self.course = 90.0
+        self.sog = 2.0
+        self.dist = 0.0
+
+    def run(self, tr, t0_ms, seconds, dt_ms=200):
+        t = t0_ms
+        for _ in range(int(seconds * 1000 / dt_ms)):
+            t += dt_ms
+            if tr.lead_deg:
+                self.course = self.heading + tr.lead_deg
+            old = self.heading
+            self.heading += 0.4 * T.wrap180(self.course - self.heading) * dt_ms / 1000.0 * 2.5
+            rate = T.wrap180(self.heading - old) * 1000.0 / dt_ms
+            act = tr.step(t, self.heading % 360.0, self.sog, self.dist, T.wrap180(self.course - self.heading), rate)
+            self.course += tr.course_delta_deg
+            if act is not None:
+                return act, t
+        return None, t
+
+
+def test_script_runs_phases_in_order_and_ends():
+    tr = T.Trial({"rpm_low": 500, "rpm_high": 900, "straight_s": 20, "max_distance_m": 1e6})
+    tr.start(0, 90.0)
+    b = _Boat()
+    act, t = b.run(tr, 0, 900)
+    true(act is not None)
+    eq(act[0], "end")
+    true(not tr.active)
+    true(t / 1000.0 < 600, t)  # within the 10-minute budget
+
+
+def test_script_marks_each_manoeuvre():
+    tr = T.Trial({"straight_s": 20, "max_distance_m": 1e6})
+    tr.start(0, 90.0)
+    b = _Boat()
+    marks = []
+    t = 0
+    for _ in range(200):
+        act, t = b.run(tr, t, 5)
+        marks += tr.drain_marks()
+        if act is not None:
+            break
+    text = "\n".join(marks)
+    for want in ("begin", "straight start", "step start +10 rpm=600", "step start -20 rpm=1000",
+                 "zigzag start", "zigzag switch", "circle start dir=+1", "circle start dir=-1", "end end"):
+        true(want in text, want)
+
+
+def test_limits_abort_the_script():
+    tr = T.Trial({"max_distance_m": 100.0})
+    tr.start(0, 0.0)
+    eq(tr.step(200, 0.0, 2.0, 150.0, 0.0, 0.0)[0], "abort")
+    true(not tr.active)
+    tr = T.Trial({"max_duration_s": 60})
+    tr.start(0, 0.0)
+    act = None
+    t = 0
+    while act is None and t < 100000:
+        t += 200
+        act = tr.step(t, 0.0, 2.0, 0.0, 0.0, 0.0)
+    eq(act[0], "abort")
+    true("longer than 60" in act[1], act)
+    tr = T.Trial({"min_speed_mps": 0.5})
+    tr.start(0, 0.0)
+    act = None
+    t = 0
+    while act is None and t < 100000:
+        t += 200
+        act = tr.step(t, 0.0, 0.2, 0.0, 0.0, 0.0)
+    eq(act[0], "abort")
+    true("speed" in act[1], act)
+    true(t < 25000, t)
+
+
+def test_stop_from_outside_commands_nothing_more():
+    tr = T.Trial()
+    tr.start(0, 0.0)
+    tr.stop("mode STANDBY")
+    eq(tr.step(200, 0.0, 2.0, 0.0, 0.0, 0.0), None)
+    eq(tr.lead_deg, 0)
+    eq(tr.course_delta_deg, 0)
+    true("stopped" in tr.result)
+
+
+def test_no_maintenance_or_upload_during_a_trial():
+    from trackpilot.board import maint
+
+    g = maint.Gate()
+    mm = M.ModeMachine()
+    mm.start_trial(0, None, "HMI")
+    ok, why = g.request(M.MODE_NAMES[mm.mode], 10)
+    true(not ok, why)
+    true("STANDBY" in why, why)
