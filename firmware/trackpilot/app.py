@@ -21,7 +21,7 @@ import gc
 
 from trackpilot import VERSION
 from trackpilot import modes as M
-from trackpilot import control, logfmt, ntrip, seatalk
+from trackpilot import control, logfmt, seatalk
 from trackpilot.compat import ticks_add, ticks_diff, wrap180
 from trackpilot.fix import RTK_FIXED, RTK_FLOAT, RTK_NAMES, RTK_SINGLE, Fix
 
@@ -315,6 +315,8 @@ class App:
         """Age of the last RTCM frame forwarded to the receiver, None if none (or no NTRIP)."""
         if not self.cfg["ntrip"]["enabled"]:
             return self.w.correction_age_s(t_ms)
+        from trackpilot import ntrip  # imported only with NTRIP on (docs/MEMORY.md)
+
         s = ntrip.current_session()
         return s.age_s(t_ms) if s is not None else None
 
@@ -912,6 +914,8 @@ class App:
 
     def start_ntrip(self):
         """RTK corrections: caster -> GNSS UART (with Wi-Fi: once the link is first up, task_wifi)."""
+        from trackpilot import ntrip  # imported only when it starts (docs/MEMORY.md)
+
         self.ntrip_task = asyncio.create_task(ntrip.run_client(
             self.cfg["ntrip"], self.w.gnss_uart.write, self.clock, gga=self.gga_bytes, events=self.event))
 
