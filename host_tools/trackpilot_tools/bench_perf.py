@@ -534,7 +534,8 @@ def footprint(out, lib, track, stream, log=print, install=True):
 
 
 # ---------------------------------------------------------------------- heap, frozen 32-bit build
-_STAGE = re.compile(r"heap stage (.+?)\s+live\s+(\d+) B, free\s+(\d+) B, largest free block\s+(\S+) B")
+_STAGE = re.compile(r"heap stage (.+?)\s+live\s+(\d+) B, free\s+(\d+) B, largest free block\s+(\S+) B"
+                    r"(?:, frozen-code records\s+(\d+) B)?")
 
 
 def build_frozen():
@@ -556,7 +557,8 @@ def parse_heap_stages(text):
     for m in _STAGE.finditer(text):
         big = m.group(4)
         out.append({"stage": m.group(1).strip(), "live_B": int(m.group(2)), "free_B": int(m.group(3)),
-                    "largest_free_B": int(big) if big.isdigit() else None})
+                    "largest_free_B": int(big) if big.isdigit() else None,
+                    "loader_B": int(m.group(5)) if m.group(5) else None})
     return out
 
 
@@ -609,10 +611,14 @@ def frozen_heap_lines(fh):
             "completes" if r["ok"] else "fails (%s%s)" % (r.get("stop"), ", MemoryError" if r.get("memory_error") else ""),
             _fmt(r.get("peak_heap_B")), _fmt(r.get("gc_max_pause_us"))))
         L.append("")
-        L.append("  | stage | live B | free B | largest free block B |")
-        L.append("  |---|---|---|---|")
+        L.append("  | stage | live B | free B | largest free block B | of live: frozen-code records B | "
+                 "live without them B |")
+        L.append("  |---|---|---|---|---|---|")
         for s in r["stages"]:
-            L.append("  | %s | %d | %d | %s |" % (s["stage"], s["live_B"], s["free_B"], _fmt(s["largest_free_B"])))
+            ld = s.get("loader_B")
+            L.append("  | %s | %d | %d | %s | %s | %s |" % (
+                s["stage"], s["live_B"], s["free_B"], _fmt(s["largest_free_B"]), _fmt(ld),
+                "-" if ld is None else s["live_B"] - ld))
     return L
 
 

@@ -20,9 +20,22 @@ static mp_obj_t gcinfo_info(void) {
 }
 static MP_DEFINE_CONST_FUN_OBJ_0(gcinfo_info_obj, gcinfo_info);
 
+// `gcinfo.loader()`: (bytes, modules) the core's loader has put on the heap for the modules frozen
+// into the frozen-firmware build, which a real freeze keeps in flash (romfs.c); (0, 0) otherwise.
+size_t romfs_loader_heap(size_t *modules);
+
+static mp_obj_t gcinfo_loader(void) {
+    size_t modules;
+    size_t bytes = romfs_loader_heap(&modules);
+    mp_obj_t items[2] = {mp_obj_new_int_from_uint(bytes), mp_obj_new_int_from_uint(modules)};
+    return mp_obj_new_tuple(2, items);
+}
+static MP_DEFINE_CONST_FUN_OBJ_0(gcinfo_loader_obj, gcinfo_loader);
+
 static const mp_rom_map_elem_t gcinfo_module_globals_table[] = {
     { MP_ROM_QSTR(MP_QSTR___name__), MP_ROM_QSTR(MP_QSTR_gcinfo) },
     { MP_ROM_QSTR(MP_QSTR_info), MP_ROM_PTR(&gcinfo_info_obj) },
+    { MP_ROM_QSTR(MP_QSTR_loader), MP_ROM_PTR(&gcinfo_loader_obj) },
 };
 static MP_DEFINE_CONST_DICT(gcinfo_module_globals, gcinfo_module_globals_table);
 
