@@ -564,7 +564,8 @@ def parse_heap_stages(text):
 
 def frozen_heap(job):
     """Start-up and steady-state heap of the frozen 32-bit build (sim_main --heap-stages) for each
-    (name, track) of job["tracks"] at each -X heapsize of job["heaps"]. Runs in a worker."""
+    (name, track) of job["tracks"] at each -X heapsize of job["heaps"] (for job["duration_s"]
+    simulated seconds if given, else until the track is done). Runs in a worker."""
     interp, why = build_frozen()
     if interp is None:
         return {"error": "frozen build failed: %s" % why}
@@ -581,11 +582,12 @@ def frozen_heap(job):
             for heap in job["heaps"]:
                 rdir = out / ("%s_%d" % (name, heap))
                 fig = run_mission({"track": track, "out": str(rdir), "wrapper": str(wrapper), "heap": heap,
-                                   "timeout": job.get("timeout", 900)})
+                                   "timeout": job.get("timeout", 900), "duration_s": job.get("duration_s")})
                 err = (rdir / "firmware_stderr.txt").read_text(errors="replace")
                 runs.append({"track": name, "heap": heap, "ok": fig.get("ok"), "stop": fig.get("stop"),
                              "memory_error": fig.get("memory_error"), "sim_s": fig.get("sim_s"),
                              "peak_heap_B": fig.get("peak_heap_B"), "gc_max_pause_us": fig.get("gc_max_pause_us"),
+                             "failure": fig.get("failure"), "stderr_tail": err[-800:],
                              "stages": parse_heap_stages(err)})
     finally:
         if saved is None:
