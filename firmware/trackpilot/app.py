@@ -21,7 +21,7 @@ import gc
 
 from trackpilot import VERSION
 from trackpilot import modes as M
-from trackpilot import control, logfmt, ntrip, seatalk
+from trackpilot import control, logfmt, seatalk
 from trackpilot.compat import ticks_add, ticks_diff, wrap180
 from trackpilot.fix import RTK_FIXED, RTK_FLOAT, RTK_NAMES, RTK_SINGLE, Fix
 
@@ -56,7 +56,7 @@ class App:
     def __init__(self, wiring, cfg, cfg_problems=(), reset_cause="unknown"):
         from trackpilot import logger
 
-        # the largest buffers first (the log's 4 KB write buffer and 2 KB header frame), while the
+        # the largest buffers first (the log's 2 KB write buffer and 2 KB header frame), while the
         # heap is still one block; the other modules are imported after them
         self.log = logger.Logger(
             wiring.log_dir,
@@ -335,6 +335,8 @@ class App:
         """Age of the last RTCM frame forwarded to the receiver, None if none (or no NTRIP)."""
         if not self.cfg["ntrip"]["enabled"]:
             return self.w.correction_age_s(t_ms)
+        from trackpilot import ntrip  # imported only with NTRIP on (docs/MEMORY.md)
+
         s = ntrip.current_session()
         return s.age_s(t_ms) if s is not None else None
 
@@ -977,6 +979,8 @@ class App:
 
     def start_ntrip(self):
         """RTK corrections: caster -> GNSS UART (with Wi-Fi: once the link is first up, task_wifi)."""
+        from trackpilot import ntrip  # imported only when it starts (docs/MEMORY.md)
+
         self.ntrip_task = asyncio.create_task(ntrip.run_client(
             self.cfg["ntrip"], self.w.gnss_uart.write, self.clock, gga=self.gga_bytes, events=self.event))
 
