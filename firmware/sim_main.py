@@ -39,15 +39,24 @@ def largest_free_block():
 
 def heap_stage(name):
     """One line of the start-up heap table on stderr (--heap-stages): live heap after a
-    collection, free heap and the largest free block."""
+    collection, free heap and the largest free block; on the frozen-firmware build also the part
+    of the live heap that is the loader's records of the frozen code (in flash on an ESP32
+    image: tools/README.md, docs/MEMORY.md)."""
     import gc
 
     gc.collect()
     live = gc.mem_alloc()
     free = gc.mem_free()
     big = largest_free_block()
-    sys.stderr.write("sim_main: heap stage %-16s live %6d B, free %6d B, largest free block %6s B\n" % (
-        name, live, free, "-" if big is None else big))
+    try:
+        import gcinfo
+
+        loader = gcinfo.loader()[0]
+    except (ImportError, AttributeError):
+        loader = 0
+    sys.stderr.write("sim_main: heap stage %-16s live %6d B, free %6d B, largest free block %6s B%s\n" % (
+        name, live, free, "-" if big is None else big,
+        ", frozen-code records %6d B" % loader if loader else ""))
 
 
 async def _heap_watch(link, app):
@@ -112,6 +121,8 @@ def main():
 
         asyncio.run(_run())
         heap_stage("stopped")
+        # the modules the run imported (tools/romfs_heap.py estimates their loader records)
+        sys.stderr.write("sim_main: modules %s\n" % " ".join(sorted(sys.modules)))
     else:
         asyncio.run(app.run())
     if journal is not None:

@@ -25,7 +25,6 @@ from trackpilot import VERSION
 from trackpilot.compat import ticks_add, ticks_diff
 from trackpilot.core import modes as M
 from trackpilot.core.autopilot import Autopilot
-from trackpilot.devices import ntrip
 from trackpilot.nav.fix import Fix
 
 try:
@@ -46,7 +45,7 @@ class App:
     def __init__(self, wiring, cfg, cfg_problems=(), reset_cause="unknown", core_class=Autopilot):
         from trackpilot.record import logger
 
-        # the largest buffers first (the log's 4 KB write buffer and 2 KB header frame), while the
+        # the largest buffers first (the log's 2 KB write buffer and 2 KB header frame), while the
         # heap is still one block; the other modules are imported after them (here and in the core)
         self.log = logger.Logger(
             wiring.log_dir,
@@ -193,6 +192,8 @@ class App:
         """Age of the last RTCM frame forwarded to the receiver, None if none (or no NTRIP)."""
         if not self.cfg["ntrip"]["enabled"]:
             return self.w.correction_age_s(t_ms)
+        from trackpilot.devices import ntrip  # imported only with NTRIP on (docs/MEMORY.md)
+
         s = ntrip.current_session()
         return s.age_s(t_ms) if s is not None else None
 
@@ -461,6 +462,8 @@ class App:
 
     def start_ntrip(self):
         """RTK corrections: caster -> GNSS UART (with Wi-Fi: once the link is first up, task_wifi)."""
+        from trackpilot.devices import ntrip  # imported only when it starts (docs/MEMORY.md)
+
         self.ntrip_task = asyncio.create_task(ntrip.run_client(
             self.cfg["ntrip"], self.w.gnss_uart.write, self.clock, gga=self.gga_bytes, events=self.event))
 

@@ -536,7 +536,8 @@ def footprint(out, lib, track, stream, log=print, install=True):
 
 
 # ---------------------------------------------------------------------- heap, frozen 32-bit build
-_STAGE = re.compile(r"heap stage (.+?)\s+live\s+(\d+) B, free\s+(\d+) B, largest free block\s+(\S+) B")
+_STAGE = re.compile(r"heap stage (.+?)\s+live\s+(\d+) B, free\s+(\d+) B, largest free block\s+(\S+) B"
+                    r"(?:, frozen-code records\s+(\d+) B)?")
 
 
 def build_frozen():
@@ -558,13 +559,15 @@ def parse_heap_stages(text):
     for m in _STAGE.finditer(text):
         big = m.group(4)
         out.append({"stage": m.group(1).strip(), "live_B": int(m.group(2)), "free_B": int(m.group(3)),
-                    "largest_free_B": int(big) if big.isdigit() else None})
+                    "largest_free_B": int(big) if big.isdigit() else None,
+                    "loader_B": int(m.group(5)) if m.group(5) else None})
     return out
 
 
 def frozen_heap(job):
     """Start-up and steady-state heap of the frozen 32-bit build (sim_main --heap-stages) for each
-    (name, track) of job["tracks"] at each -X heapsize of job["heaps"]. Runs in a worker."""
+    (name, track) of job["tracks"] at each -X heapsize of job["heaps"] (for job["duration_s"]
+    simulated seconds if given, else until the track is done). Runs in a worker."""
     interp, why = build_frozen()
     if interp is None:
         return {"error": "frozen build failed: %s" % why}
@@ -581,11 +584,12 @@ def frozen_heap(job):
             for heap in job["heaps"]:
                 rdir = out / ("%s_%d" % (name, heap))
                 fig = run_mission({"track": track, "out": str(rdir), "wrapper": str(wrapper), "heap": heap,
-                                   "timeout": job.get("timeout", 900)})
+                                   "timeout": job.get("timeout", 900), "duration_s": job.get("duration_s")})
                 err = (rdir / "firmware_stderr.txt").read_text(errors="replace")
                 runs.append({"track": name, "heap": heap, "ok": fig.get("ok"), "stop": fig.get("stop"),
                              "memory_error": fig.get("memory_error"), "sim_s": fig.get("sim_s"),
                              "peak_heap_B": fig.get("peak_heap_B"), "gc_max_pause_us": fig.get("gc_max_pause_us"),
+                             "failure": fig.get("failure"), "stderr_tail": err[-800:],
                              "stages": parse_heap_stages(err)})
     finally:
         if saved is None:
@@ -611,10 +615,14 @@ def frozen_heap_lines(fh):
             "completes" if r["ok"] else "fails (%s%s)" % (r.get("stop"), ", MemoryError" if r.get("memory_error") else ""),
             _fmt(r.get("peak_heap_B")), _fmt(r.get("gc_max_pause_us"))))
         L.append("")
-        L.append("  | stage | live B | free B | largest free block B |")
-        L.append("  |---|---|---|---|")
+        L.append("  | stage | live B | free B | largest free block B | of live: frozen-code records B | "
+                 "live without them B |")
+        L.append("  |---|---|---|---|---|---|")
         for s in r["stages"]:
-            L.append("  | %s | %d | %d | %s |" % (s["stage"], s["live_B"], s["free_B"], _fmt(s["largest_free_B"])))
+            ld = s.get("loader_B")
+            L.append("  | %s | %d | %d | %s | %s | %s |" % (
+                s["stage"], s["live_B"], s["free_B"], _fmt(s["largest_free_B"]), _fmt(ld),
+                "-" if ld is None else s["live_B"] - ld))
     return L
 
 

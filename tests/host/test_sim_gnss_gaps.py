@@ -41,7 +41,7 @@ def _drop_ms(dropout_start_s):
     return int((BRIDGE_T_S + 6.0) * 1000) if dropout_start_s is None else int(dropout_start_s * 1000)
 
 
-# measured max |XTE| from the approach on, seeds 1-4, `los`: 1.56, 1.34, 1.33, 1.90 m (goal 2.0)
+# measured max |XTE| from the approach on, seeds 1-4, `los` (damped law of issue 10): 1.03, 0.83, 1.15, 1.44 m (goal 2.0)
 @pytest.mark.parametrize("seed", [1, 2, 3, 4])
 def test_bridge_completes_without_a_person(canal, tmp_path, seed):
     """Float 6 s, no GNSS 15 s, single 5 s, float 9 s, compass bent 6 deg: the same AUTO goes
@@ -62,7 +62,7 @@ def test_bridge_completes_without_a_person(canal, tmp_path, seed):
 
 
 def test_30_s_dropout_completes(canal, tmp_path):
-    """30 s without GNSS, then the 5 s single and 9 s float of reacquisition (measured: 2.86 m)."""
+    """30 s without GNSS, then the 5 s single and 9 s float of reacquisition (measured: 1.70 m, seed 2)."""
     r, res, modes, events = _bridge(canal, tmp_path / "b", 30.0, seed=2)
     assert res["stop_reason"] == "finished", (res["stop_reason"], modes)
     assert "ALARM" not in [v for _, v in modes]
@@ -153,11 +153,14 @@ def test_25_hz_steers_like_5_hz(tmp_path):
     assert summary["guided"] > 1000 and summary["heading_identical"] == summary["guided"], summary
 
 
-def test_bridge_run_replays_every_command(canal, tmp_path):
+# before the dead-reckoned step's heading was rounded to the log's resolution: 1196/1198 (seed 2)
+# and 1147/1169 (seed 3) identical on the 64-bit port, 1194/1198 and 1148/1169 on float32
+@pytest.mark.parametrize("seed", [2, 3])
+def test_bridge_run_replays_every_command(canal, tmp_path, seed):
     """Dead-reckoned steps are logged as the position steered by: a replay reproduces them."""
     from trackpilot_tools.replay_cmd import run_replay
 
-    r, res, modes, events = _bridge(canal, tmp_path / "b", 15.0, seed=2)
+    r, res, modes, events = _bridge(canal, tmp_path / "b", 15.0, seed=seed)
     summary, _ = run_replay(sorted((tmp_path / "b" / "fw" / "log").glob("*.tpl")),
                             config=tmp_path / "b" / "config.json")
     assert summary["guided"] > 1000 and summary["heading_identical"] == summary["guided"], summary
@@ -166,7 +169,7 @@ def test_bridge_run_replays_every_command(canal, tmp_path):
 @pytest.mark.parametrize("float_s", [60, 120])
 def test_long_float_after_the_bridge(canal, tmp_path, float_s):
     """A float episode of 60 / 120 s after the bridge's 15 s dropout: steered on float (XTE
-    alarm limit doubled), completes without a person (measured max |XTE| 1.81 m for both)."""
+    alarm limit doubled), completes without a person (measured max |XTE| 0.83 m for both)."""
     faults = scenarios.bridge_faults(BRIDGE_T_S, 15.0) + ["rtk_float@%g:%g" % (BRIDGE_T_S + 21, float_s)]
     r = SimRun(canal, tmp_path / "f", seed=2, scenario="current", faults=faults,
                overrides=dict(scenarios.BRIDGE_GNSS))

@@ -38,6 +38,7 @@ const mp_print_t mp_stderr_print = {NULL, stderr_print_strn};
 // romfs.c: modules frozen into the binary (none unless built with --frozen).
 size_t romfs_module_count(void);
 int romfs_stat(const char *path);
+size_t romfs_qstr_init(void);
 
 // Returns the process exit code for an uncaught exception.
 static int handle_uncaught_exception(mp_obj_base_t *exc) {
@@ -152,6 +153,7 @@ int main(int argc, char **argv) {
     }
     gc_init(heap, heap + heap_size);
     mp_init();
+    romfs_qstr_init(); // the frozen modules' qstrs, outside the heap as in a real freeze
 
     // sys.path: [".frozen" in the frozen-firmware build,] script directory (or '') then
     // MICROPYPATH entries. Frozen modules come first, as on the ESP32, so that the firmware's

@@ -3,6 +3,8 @@
 // Only in this host build (not on the ESP32): the benchmark's start-up heap table reads the
 // largest free block here, because finding it by allocating can leave a stale pointer that
 // pins the block it found.
+#include <unistd.h>
+
 #include "py/gc.h"
 #include "py/runtime.h"
 
@@ -20,9 +22,38 @@ static mp_obj_t gcinfo_info(void) {
 }
 static MP_DEFINE_CONST_FUN_OBJ_0(gcinfo_info_obj, gcinfo_info);
 
+// `gcinfo.loader()`: (bytes, modules) the core's loader has put on the heap for the modules frozen
+// into the frozen-firmware build, which a real freeze keeps in flash (romfs.c); (0, 0) otherwise.
+size_t romfs_loader_heap(size_t *modules);
+
+static mp_obj_t gcinfo_loader(void) {
+    size_t modules;
+    size_t bytes = romfs_loader_heap(&modules);
+    mp_obj_t items[2] = {mp_obj_new_int_from_uint(bytes), mp_obj_new_int_from_uint(modules)};
+    return mp_obj_new_tuple(2, items);
+}
+static MP_DEFINE_CONST_FUN_OBJ_0(gcinfo_loader_obj, gcinfo_loader);
+
+// `gcinfo.dump()`: the heap's block map (as micropython.mem_info(1) prints it) on stderr, for
+// finding what splits the free heap; stdout is the simulator's protocol.
+static void gcinfo_stderr_strn(void *env, const char *str, size_t len) {
+    (void)env;
+    ssize_t r = write(2, str, len);
+    (void)r;
+}
+static const mp_print_t gcinfo_stderr_print = {NULL, gcinfo_stderr_strn};
+
+static mp_obj_t gcinfo_dump(void) {
+    gc_dump_alloc_table(&gcinfo_stderr_print);
+    return mp_const_none;
+}
+static MP_DEFINE_CONST_FUN_OBJ_0(gcinfo_dump_obj, gcinfo_dump);
+
 static const mp_rom_map_elem_t gcinfo_module_globals_table[] = {
     { MP_ROM_QSTR(MP_QSTR___name__), MP_ROM_QSTR(MP_QSTR_gcinfo) },
     { MP_ROM_QSTR(MP_QSTR_info), MP_ROM_PTR(&gcinfo_info_obj) },
+    { MP_ROM_QSTR(MP_QSTR_loader), MP_ROM_PTR(&gcinfo_loader_obj) },
+    { MP_ROM_QSTR(MP_QSTR_dump), MP_ROM_PTR(&gcinfo_dump_obj) },
 };
 static MP_DEFINE_CONST_DICT(gcinfo_module_globals, gcinfo_module_globals_table);
 

@@ -41,6 +41,17 @@ _RTK_BY_NAME = {"single": RTK_SINGLE, "float": RTK_FLOAT, "fixed": RTK_FIXED}
 STATE_SAVE_MS = 10000  # the state file (leg, track) is rewritten at least this often
 
 
+def _at_log_resolution(fix):
+    """The control step's float inputs rounded to the log's resolution (0.01 deg, 1 mm/s ...),
+    as a decoder gives them back: a replay of the log steers with exactly what the boat did."""
+    q = logfmt.quantized
+    fix.heading_deg = q("heading_deg", fix.heading_deg)
+    fix.heading_acc_deg = q("heading_acc_deg", fix.heading_acc_deg)
+    fix.sog_mps = q("sog_mps", fix.sog_mps)
+    fix.cog_deg = q("cog_deg", fix.cog_deg)
+    fix.h_acc_m = q("h_acc_m", fix.h_acc_m)
+
+
 class Autopilot:
     def __init__(self, cfg, cfg_problems, fix, rand, rec=None):
         from trackpilot.config import rejected
@@ -353,13 +364,7 @@ class Autopilot:
             self.last_epoch_ms = t_ms
             self.dr_step_ms = None
             self.epochs += 1
-            # the inputs at the log's resolution (0.01 deg, 1 mm/s ...): replay reproduces every command
-            q = logfmt.quantized
-            fix.heading_deg = q("heading_deg", fix.heading_deg)
-            fix.heading_acc_deg = q("heading_acc_deg", fix.heading_acc_deg)
-            fix.sog_mps = q("sog_mps", fix.sog_mps)
-            fix.cog_deg = q("cog_deg", fix.cog_deg)
-            fix.h_acc_m = q("h_acc_m", fix.h_acc_m)
+            _at_log_resolution(fix)
             ok, why = control.gnss_ok(fix, self.steer_min_rtk)
             self.check_rate()
         else:
@@ -367,6 +372,8 @@ class Autopilot:
             self.dr_step_ms = t_ms
         nav = self.navigation_fix(t_ms, ok, epoch, dt_s)
         dr = nav is not fix
+        if dr:
+            _at_log_resolution(nav)  # the dead-reckoned heading is logged as steered by, too
         self.mm.gnss_quality(t_ms, ok, why, dr=dr, bad_s=self.dr.hold_s if dr else None)
         self.note_quality(t_ms, ok, dr)
         mm = self.mm

@@ -321,6 +321,8 @@ class SimRun:
             self.pilot.set_hang("steer")
         elif name == "pilot_hang_keys":
             self.pilot.set_hang("keys")
+        elif name == "pilot_key_standby_on_auto":
+            self.pilot.standby_on_auto = True
         elif name.startswith("pilot_key_"):
             key = {"standby": "standby", "auto": "auto", "minus10": "-10", "plus10": "+10",
                    "minus1": "-1", "plus1": "+1"}[name[len("pilot_key_"):]]

@@ -28,6 +28,9 @@ FAULTS = {
     "pilot_hang_steer": (False, "ST2000+ keeps talking and taking keys, the rudder stops tracking"),
     "pilot_hang_keys": (False, "ST2000+ ignores course keystrokes (Standby/Auto still work)"),
     "pilot_key_standby": (False, "a person presses Standby on the ST2000+"),
+    "pilot_key_standby_on_auto": (False, "from T on, a person presses Standby on the ST2000+ just as the "
+                                         "firmware's next Auto keystroke arrives (the pilot acts on the "
+                                         "person's key first: the takeover race)"),
     "pilot_key_auto": (False, "a person presses Auto on the ST2000+"),
     "pilot_key_minus10": (False, "a person presses -10 on the ST2000+"),
     "pilot_key_plus10": (False, "a person presses +10 on the ST2000+"),

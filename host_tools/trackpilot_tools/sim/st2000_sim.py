@@ -53,6 +53,8 @@ class ST2000Sim:
         self.started = False
         self.silent = False  # fault: no status datagrams
         self.keys_by_sender = {}
+        self.standby_on_auto = False  # fault armed: a person's Standby races our next Auto
+        self.standby_on_auto_us = None  # when that person pressed it
 
     # ---------------------------------------------------------------- periodic status
     def start(self, t_us, phase_us=0):
@@ -138,6 +140,8 @@ class ST2000Sim:
         if self.rx_buf is None:
             return  # data byte outside a datagram: ignored
         self.rx_buf.append(value)
+        if self.standby_on_auto and len(self.rx_buf) == 3:
+            self._race_auto(t_us)
         if len(self.rx_buf) >= 2 and len(self.rx_buf) == stcodec.datagram_len(self.rx_buf[1]):
             d = bytes(self.rx_buf)
             self.rx_buf = None
@@ -161,6 +165,19 @@ class ST2000Sim:
         key = stcodec.KEY_NAMES[key_name]
         self.bus.send(self.talker, stcodec.encode_86(0, key), t_us)
         self.sched.at(t_us + self.p["key_delay_ms"] * 1000, self._apply_key, key, 0, True)
+
+    def _race_auto(self, t_us):
+        """The takeover race at its tightest: an Auto keystroke from another sender has its key
+        byte on the wire (its last byte still to come) and a person presses Standby on the unit
+        now, so the pilot acts on the person's key first and on the Auto one character later."""
+        b = self.rx_buf
+        if b[0] != 0x86 or (b[1] & 0x0F) != 1 or b[1] >> 4 == 0 or b[2] != stcodec.KEY_AUTO:
+            return
+        self.standby_on_auto = False
+        self.standby_on_auto_us = t_us
+        why = "person presses standby as an auto from sender %d arrives" % (b[1] >> 4)
+        self.log.append((t_us // 1000, why))
+        self.person_key(t_us, "standby")
 
     def _apply_key(self, t_us, key, sender, local):
         t_ms = t_us // 1000

@@ -1,0 +1,88 @@
+"""Issue 13's memory goals on the frozen 32-bit single-precision build (docs/MEMORY.md).
+
+The frozen build (tools/build_micropython_f32.sh --frozen) imports the firmware from .mpy images
+in the binary, but the core's loader still puts each function's raw-code record, the constant
+tables and constant objects on the heap, which an ESP32 image frozen by mpy-tool keeps in flash.
+The build counts them (gcinfo.loader()). So "the ESP32's 110 KB heap" is run here as
+-X heapsize = 110 KB + those records, measured in a first short run.
+
+Built if missing (cached; about 90 s from scratch); skipped with the reason when it can't be.
+"""
+import shutil
+import subprocess
+import sys
+
+import pytest
+
+from trackpilot_tools import bench_perf
+from trackpilot_tools.mpy import ROOT
+
+ESP32_HEAP_B = 110 * 1024  # what the application gets on the board (docs/MEMORY.md)
+STEADY_LARGEST_FREE_B = 16 * 1024  # issue 13's goal for the largest free block in steady state
+LOOP = ROOT / "tracks" / "middelburg_loop.csv"
+
+
+@pytest.fixture(scope="module")
+def frozen():
+    missing = [t for t in ("gcc", "make", "tar") if shutil.which(t) is None]
+    if missing:
+        pytest.skip("frozen f32 build not possible here: no %s (a C toolchain is needed)" % ", ".join(missing))
+    interp, why = bench_perf.build_frozen()
+    if interp is None:
+        if "not found (needed to build MicroPython)" in why or "gcc-multilib" in why:
+            pytest.skip("frozen f32 build skipped: " + why)
+        pytest.fail("tools/build_micropython_f32.sh --frozen failed:\n" + why)
+    return interp
+
+
+def _one(tmp_path, name, heap, duration_s=None):
+    res = bench_perf.frozen_heap({"out": str(tmp_path / name), "tracks": [("loop", str(LOOP))], "heaps": [heap],
+                                  "duration_s": duration_s, "timeout": 600})
+    assert "error" not in res, res.get("error")
+    return res["runs"][0]
+
+
+@pytest.fixture(scope="module")
+def loop_at_esp32_heap(frozen, tmp_path_factory):
+    """The example loop, whole, at 110 KB + the frozen code's records."""
+    tmp = tmp_path_factory.mktemp("frozen_heap")
+    probe = _one(tmp, "probe", 256 * 1024, duration_s=5)
+    started = [s for s in probe["stages"] if s["stage"] == "tasks started"]
+    assert started and started[0]["loader_B"], probe["stderr_tail"]
+    records = started[0]["loader_B"]
+    run = _one(tmp, "esp32", ESP32_HEAP_B + records)
+    return records, run
+
+
+def test_loader_records_match_the_mpy_estimate(frozen, tmp_path):
+    """gcinfo.loader() (measured) and tools/romfs_heap.py (from the .mpy format) agree within 10 %
+    on config, the module with the most constants."""
+    proc = subprocess.run([frozen, "-c", "import gcinfo\nimport trackpilot.config\nprint(gcinfo.loader()[0])"],
+                          capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 0, proc.stderr
+    measured = int(proc.stdout.split()[-1])
+    est = subprocess.run([sys.executable, str(ROOT / "tools" / "romfs_heap.py"), "--modules",
+                          "trackpilot trackpilot.config"], capture_output=True, text=True, timeout=120)
+    assert est.returncode == 0, est.stderr
+    total = est.stdout.strip().splitlines()[-1].split()
+    estimated = int(total[-1])  # loader_B of the "all" row
+    assert measured > 4000, measured
+    assert abs(measured - estimated) <= 0.1 * measured, (measured, estimated)
+
+
+def test_loop_completes_in_the_esp32_heap(loop_at_esp32_heap):
+    records, run = loop_at_esp32_heap
+    assert not run["memory_error"], run["stderr_tail"]
+    assert run["stop"] == "finished" and not run["failure"], (run["stop"], run["stderr_tail"])
+    steady = [s for s in run["stages"] if s["stage"].startswith("t=")]
+    assert len(steady) >= 2, run["stages"]
+    # the live heap without the records is what the board would hold: well inside 110 KB
+    assert max(s["live_B"] - s["loader_B"] for s in steady) < ESP32_HEAP_B - STEADY_LARGEST_FREE_B
+
+
+@pytest.mark.xfail(strict=True, reason="issue 13 goal not met yet (docs/MEMORY.md): the free heap is in pieces "
+                                        "of 3-6 KB in steady state at 110 KB")
+def test_loop_steady_largest_free_block(loop_at_esp32_heap):
+    records, run = loop_at_esp32_heap
+    steady = [s for s in run["stages"] if s["stage"].startswith("t=")]
+    assert steady and min(s["largest_free_B"] for s in steady) >= STEADY_LARGEST_FREE_B, steady
