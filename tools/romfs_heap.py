@@ -155,10 +155,13 @@ def default_sources(root):
     src = []
     for pkg, base in (("trackpilot", "firmware"), ("tphmi", "hmi")):
         top = os.path.join(root, base, pkg)
-        for f in sorted(os.listdir(top)):
-            if f.endswith(".py"):
-                mod = pkg + ("" if f == "__init__.py" else "." + f[:-3])
-                src.append((mod, os.path.join(top, f)))
+        for d, dirs, files in os.walk(top):  # the subpackages too (trackpilot/core, devices, ...)
+            dirs[:] = sorted(x for x in dirs if x != "__pycache__")
+            prefix = ".".join([pkg] + os.path.relpath(d, top).split(os.sep)) if d != top else pkg
+            for f in sorted(files):
+                if f.endswith(".py"):
+                    mod = prefix + ("" if f == "__init__.py" else "." + f[:-3])
+                    src.append((mod, os.path.join(d, f)))
     return src
 
 
