@@ -2,9 +2,9 @@
 
 No asyncio, no clock reads, no files, no UARTs: each entry gets its inputs and the time as
 arguments and leaves its outputs where the shell (app.py) picks them up. Its parts are the mode
-machine (modes.py), the track progress and guidance law (nav/), dead reckoning, the ST2000+ driver
-(devices/st2000.py) on its SeaTalk link (stlink.py) and the motor link (motor.py); who decides
-what is the table in docs/MODES.md ("Who decides what").
+machine (modes.py), the track progress and guidance law (nav/), dead reckoning, the commissioning
+trial (trial.py), the ST2000+ driver (devices/st2000.py) on its SeaTalk link (stlink.py) and the
+motor link (motor.py); who decides what is the table in docs/MODES.md ("Who decides what").
 
 Inputs (one entry per kind):
     on_fix(t_ms, interval_ms, corr_age_s)   a completed GNSS epoch in `fix` (the control step)
@@ -15,8 +15,9 @@ Inputs (one entry per kind):
     on_motor_rx(mv, n, t_ms) / motor_tick(t_ms)  the motor controller's replies / keep-alive frame
     on_wind_rx(mv, n, t_ms)                 bytes of the wind sensor
     on_estop(active, t_ms)                  the E-stop input's level
-    on_key(name, source, t_ms, corr_age_s)  a person's command (HMI button, remote box, host)
+    on_key(name, source, t_ms, corr_age_s)  a person's command (ENGAGE, STANDBY, ACK, TRIAL, ...)
     set_track(...), restore_state(...)      a track the shell read; the state file it read
+    settle(t_ms)                            a part was driven directly (test harness): its events
 Outputs:
     pop_event() -> (kind, text, t_ms)       log events, in order
     rec / rec_ready                         the control record of the last step, to log
@@ -28,7 +29,7 @@ The HMI reads the state attributes (mm, fix, progress, pilot, refusal, ...) thro
 Usage:
     core = Autopilot(cfg, cfg_problems, fix, rand)
     core.on_fix(t_ms, gnss.interval_ms, corr_age_s)
-    while (ev := core.pop_event()) is not None: log.event(*ev)
+    ev = core.pop_event()   # (kind, text, t_ms) until None; then core.rec if core.rec_ready
 """
 from trackpilot.compat import ticks_diff, wrap180
 from trackpilot.core import control
