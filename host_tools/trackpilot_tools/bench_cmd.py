@@ -60,6 +60,34 @@ def cases(quick=False):
         for sec, body in st.items():
             base.setdefault(sec, {}).update(body)
         out.append({"name": "robust_" + name, "track": (bt.straight, 2.0), "set": base, "faults": faults})
+    if not quick:
+        out += gnss_cases()
+    return out
+
+
+def gnss_cases():
+    """GNSS as it is on a canal (docs/MODES.md "GNSS gaps"): the issue's 300 m canal at 1.5 m/s in a
+    0.2 m/s cross current, a bridge at 60 s (float 6 s, no GNSS for D s, single 5 s, float 9 s,
+    compass bent 6 deg); then long float after it, and receivers that send in another order, without
+    NAV-EOE, at 10 Hz. A 60 s gap is past the hold (40 s): its defined reaction is ALARM (the pilot
+    keeps its course), so that case passes when it ends in ALARM, not when it finishes."""
+    from .sim import benchtracks as bt
+    from .sim import scenarios
+
+    def case(name, faults, gnss=None):
+        st = {"water": {"current_mps": 0.2, "current_dir_deg": 90.0},
+              "gnss": dict(scenarios.BRIDGE_GNSS["gnss"], **(gnss or {}))}
+        return {"name": "gnss_" + name, "track": (bt.straight, 1.5, 300.0), "set": st, "faults": faults}
+
+    out = [case("bridge_%ds" % d, scenarios.bridge_faults(60.0, d)) for d in (5, 15, 30, 60)]
+    out[-1]["expect_alarm"] = True
+    for f in (10, 60, 120):  # float episodes after the 15 s gap and its reacquisition (95 s on)
+        out.append(case("bridge_15s_float%ds" % f,
+                        scenarios.bridge_faults(60.0, 15.0) + ["rtk_float@95:%d" % f]))
+    out.append(case("bridge_15s_10hz_pvt_first_no_eoe", scenarios.bridge_faults(60.0, 15.0),
+                    {"rate_hz": 10, "order": "pvt_first", "eoe": False}))
+    out.append(case("no_eoe_valset_unanswered", [], {"eoe": False, "order": "pvt_first",
+                                                      "answer_valset": False}))
     return out
 
 
@@ -193,6 +221,9 @@ def run_one(job):
     except Exception as e:  # noqa: BLE001 - a log the decoder cannot read is reported, not fatal
         fwp = {"error": str(e)}
     failure = (not summ["finished"]) or k0 is None or any(abs(x) > 5.0 for _, x, _, _, _ in settled)
+    modes = [v for _, n, v in res["outputs"] if n == "mode"]
+    if case.get("expect_alarm"):  # a gap past the hold: ALARM is the defined reaction, not a failure
+        failure = "ALARM" not in modes or summ["finished"]
     return {
         "case": case["name"], "law": law, "seed": seed,
         "finished": summ["finished"],
@@ -209,6 +240,7 @@ def run_one(job):
         "failure": failure,
         "failure_why": None if not failure else (
             "firmware stopped answering (killed: %s)" % dog.fired if dog.fired else
+            "expected ALARM, modes %s" % modes if case.get("expect_alarm") else
             "not finished (%s)" % summ["stop_reason"] if not summ["finished"] else
             "never settled" if k0 is None else "|xte| > 5 m after settling"),
         "sim_speed_x": summ["sim_speed_x"], "stop": summ["stop_reason"], "timed_out": dog.fired,

@@ -69,6 +69,35 @@ static mp_uint_t file_write(mp_obj_t o_in, const void *buf, mp_uint_t size, int 
     return size;
 }
 
+// The readiness of a file descriptor for MP_STREAM_POLL, without waiting (files and sockets).
+mp_uint_t f32_fd_poll(int fd, uintptr_t arg, int *errcode) {
+    struct pollfd pfd = {fd, 0, 0};
+    if (arg & MP_STREAM_POLL_RD) {
+        pfd.events |= POLLIN;
+    }
+    if (arg & MP_STREAM_POLL_WR) {
+        pfd.events |= POLLOUT;
+    }
+    if (poll(&pfd, 1, 0) < 0) {
+        *errcode = errno;
+        return MP_STREAM_ERROR;
+    }
+    mp_uint_t ready = 0;
+    if (pfd.revents & POLLIN) {
+        ready |= MP_STREAM_POLL_RD;
+    }
+    if (pfd.revents & POLLOUT) {
+        ready |= MP_STREAM_POLL_WR;
+    }
+    if (pfd.revents & POLLERR) {
+        ready |= MP_STREAM_POLL_ERR;
+    }
+    if (pfd.revents & POLLHUP) {
+        ready |= MP_STREAM_POLL_HUP;
+    }
+    return ready;
+}
+
 static mp_uint_t file_ioctl(mp_obj_t o_in, mp_uint_t request, uintptr_t arg, int *errcode) {
     f32_file_obj_t *o = MP_OBJ_TO_PTR(o_in);
     if (request != MP_STREAM_CLOSE) {
@@ -97,33 +126,8 @@ static mp_uint_t file_ioctl(mp_obj_t o_in, mp_uint_t request, uintptr_t arg, int
             return 0;
         case MP_STREAM_GET_FILENO:
             return o->fd;
-        case MP_STREAM_POLL: { // select.poll: ask the descriptor, without waiting
-            struct pollfd pfd = {o->fd, 0, 0};
-            if (arg & MP_STREAM_POLL_RD) {
-                pfd.events |= POLLIN;
-            }
-            if (arg & MP_STREAM_POLL_WR) {
-                pfd.events |= POLLOUT;
-            }
-            if (poll(&pfd, 1, 0) < 0) {
-                *errcode = errno;
-                return MP_STREAM_ERROR;
-            }
-            mp_uint_t ready = 0;
-            if (pfd.revents & POLLIN) {
-                ready |= MP_STREAM_POLL_RD;
-            }
-            if (pfd.revents & POLLOUT) {
-                ready |= MP_STREAM_POLL_WR;
-            }
-            if (pfd.revents & POLLERR) {
-                ready |= MP_STREAM_POLL_ERR;
-            }
-            if (pfd.revents & POLLHUP) {
-                ready |= MP_STREAM_POLL_HUP;
-            }
-            return ready;
-        }
+        case MP_STREAM_POLL: // select.poll: ask the descriptor, without waiting
+            return f32_fd_poll(o->fd, arg, errcode);
         default:
             *errcode = MP_EINVAL;
             return MP_STREAM_ERROR;

@@ -13,6 +13,7 @@
 #include <netinet/in.h>
 
 #include "py/mperrno.h"
+#include "py/mphal.h"
 #include "py/objstr.h"
 #include "py/runtime.h"
 #include "py/stream.h"
@@ -93,31 +94,7 @@ static mp_uint_t socket_ioctl(mp_obj_t self_in, mp_uint_t request, uintptr_t arg
             if (self->fd < 0) {
                 return MP_STREAM_POLL_NVAL;
             }
-            struct pollfd pfd = {self->fd, 0, 0};
-            if (arg & MP_STREAM_POLL_RD) {
-                pfd.events |= POLLIN;
-            }
-            if (arg & MP_STREAM_POLL_WR) {
-                pfd.events |= POLLOUT;
-            }
-            if (poll(&pfd, 1, 0) < 0) {
-                *errcode = errno;
-                return MP_STREAM_ERROR;
-            }
-            mp_uint_t ready = 0;
-            if (pfd.revents & POLLIN) {
-                ready |= MP_STREAM_POLL_RD;
-            }
-            if (pfd.revents & POLLOUT) {
-                ready |= MP_STREAM_POLL_WR;
-            }
-            if (pfd.revents & POLLERR) {
-                ready |= MP_STREAM_POLL_ERR;
-            }
-            if (pfd.revents & POLLHUP) {
-                ready |= MP_STREAM_POLL_HUP;
-            }
-            return ready;
+            return f32_fd_poll(self->fd, arg, errcode);
         }
         default:
             *errcode = MP_EINVAL;

@@ -17,3 +17,6 @@ static inline mp_uint_t mp_hal_ticks_cpu(void) {
 
 // No machine.Pin here: defining the pin type stops py/mphal.h pulling in extmod/virtpin.h.
 #define mp_hal_pin_obj_t mp_obj_t
+
+// fileio.c: readiness of a file descriptor for MP_STREAM_POLL (files and sockets share it)
+mp_uint_t f32_fd_poll(int fd, uintptr_t arg, int *errcode);
