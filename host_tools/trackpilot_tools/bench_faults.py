@@ -81,6 +81,8 @@ SPEC = {
     "remote_key_echo": (None, "takeover: a hand remote with our sender id repeating our key is a person: "
                               "STANDBY + takeover alarm, the firmware stops keying the pilot", "takeover"),
     "button_ack": (None, "nothing sounding in AUTO: stays in AUTO (ACK only mutes)", "keep"),
+    "button_trial": (None, "in AUTO: refused (a commissioning trial starts only from STANDBY), stays in AUTO",
+                     "keep"),
 }
 
 
