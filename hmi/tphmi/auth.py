@@ -3,7 +3,7 @@
 Packet (27 bytes, little endian):
     b"TPC\\x01"  boat_id u16  counter u32  command u8  tag[16]
     tag = HMAC-SHA256(key, first 11 bytes)[:16]
-Commands: ENGAGE 1, STANDBY 2, NEXT_WP 3, PREV_WP 4, ACK 5 (the same names the buttons give).
+Commands: ENGAGE 1, STANDBY 2, NEXT_WP 3, PREV_WP 4, ACK 5, TRIAL 6 (the same names the buttons give).
 
 Counters survive reboots of either side (state files written to a temporary name, then renamed):
 - the sender (remote box) reserves counters in blocks: it persists "next free = n + block" before
@@ -30,7 +30,7 @@ except ImportError:  # some builds lack it; everything else in tphmi works witho
 
 from trackpilot.compat import const
 
-CMD_CODES = (("ENGAGE", 1), ("STANDBY", 2), ("NEXT_WP", 3), ("PREV_WP", 4), ("ACK", 5))
+CMD_CODES = (("ENGAGE", 1), ("STANDBY", 2), ("NEXT_WP", 3), ("PREV_WP", 4), ("ACK", 5), ("TRIAL", 6))
 CMD_MAGIC = b"TPC\x01"
 TAG_LEN = const(16)
 BODY_LEN = const(11)  # magic 4 + boat_id 2 + counter 4 + command 1

@@ -2,7 +2,7 @@
 
 Built by the wiring (`wiring_esp32.Wiring._build_hmi`); the application calls, from its inputs and
 telemetry tasks:
-    poll_commands(t_ms) -> list of (name, source): ("ENGAGE"|"STANDBY"|"NEXT_WP"|"PREV_WP"|"ACK",
+    poll_commands(t_ms) -> list of (name, source): ("ENGAGE"|"STANDBY"|"NEXT_WP"|"PREV_WP"|"ACK"|"TRIAL",
                            "HMI" or "remote"); PAGE is handled here
     show(app, t_ms)      fills the HmiStatus from the app, drives LEDs/buzzer, redraws (<= 5 Hz)
     send_status(app, t_ms)  one status datagram (docs/TELEMETRY.md) to telemetry.udp_host:status_port
@@ -27,7 +27,7 @@ from tphmi.status import HmiStatus, encode_status, status_from_app
 
 # wiring.buttons names -> order of tphmi.buttons.BUTTONS
 _BUTTON_NAMES = ("ENGAGE", "STANDBY", "NEXT_WP", "PREV_WP", "PAGE", "ACK")
-_COMMANDS = ("ENGAGE", "STANDBY", "NEXT_WP", "PREV_WP", "ACK")
+_COMMANDS = ("ENGAGE", "STANDBY", "NEXT_WP", "PREV_WP", "ACK", "TRIAL")
 
 
 class BoardHmi:

@@ -8,7 +8,8 @@ Buttons (index in the `levels` sequence, see BUTTONS):
            STANDBY is safe, a late one is not)
     NEXT   long press (wp_hold_ms) -> "NEXT_WP"; short -> "HOLD_LONGER"
     PREV   long press (wp_hold_ms) -> "PREV_WP"; short -> "HOLD_LONGER"
-    PAGE   debounced press -> "PAGE"
+    PAGE   debounced press -> "PAGE"; held alone for trial_hold_ms (3 s) -> "TRIAL" as well (the
+           commissioning trial, docs/COMMISSIONING.md; the mode machine takes it only in STANDBY)
     ACK    debounced press -> "ACK" (acknowledge / mute alarms)
 Each press gives at most one event; holding a button never repeats. The app decides what an event
 does (ENGAGE goes through the mode machine's preconditions); this module never engages anything.
@@ -37,10 +38,12 @@ _PRESS_EVENT = {B_PAGE: "PAGE", B_ACK: "ACK"}
 class Buttons:
     """Debounce and press logic for N_BUTTONS buttons (pure: no pins, no clock)."""
 
-    def __init__(self, debounce_ms=30, engage_hold_ms=1000, wp_hold_ms=800):
+    def __init__(self, debounce_ms=30, engage_hold_ms=1000, wp_hold_ms=800, trial_hold_ms=3000):
         self.debounce_ms = debounce_ms  # a level must be stable this long to count
         self.engage_hold_ms = engage_hold_ms  # AUTO must be held this long to engage
         self.wp_hold_ms = wp_hold_ms  # NEXT/PREV must be held this long
+        self.trial_hold_ms = trial_hold_ms  # PAGE held alone this long starts a trial (from STANDBY)
+        self._trial_done = False  # this PAGE press already gave TRIAL (or another button spoiled it)
         self._raw = [0] * N_BUTTONS  # last sampled level
         self._raw_since = [0] * N_BUTTONS  # t_ms the raw level last changed
         self._state = [0] * N_BUTTONS  # debounced level
@@ -83,6 +86,13 @@ class Buttons:
                         self._spoiled[i] = True
                     else:
                         ev.append(_LONG_EVENT[i])
+        # PAGE held alone: TRIAL once per press (a second, rarer gesture on the same button)
+        if self._state[B_PAGE] and not self._trial_done:
+            if self._others_down(B_PAGE):
+                self._trial_done = True
+            elif ticks_diff(t_ms, self._down_t[B_PAGE]) >= self.trial_hold_ms:
+                self._trial_done = True
+                ev.append("TRIAL")
         return ev
 
     def _others_down(self, i):
@@ -95,6 +105,10 @@ class Buttons:
         self._down_t[i] = t_ms
         self._fired[i] = False
         self._spoiled[i] = self._others_down(i)
+        if i == B_PAGE:
+            self._trial_done = self._spoiled[i]
+        elif self._state[B_PAGE]:
+            self._trial_done = True  # another button during the PAGE hold: no trial
         # A new press anywhere spoils a long press in progress.
         for j in (B_AUTO, B_NEXT, B_PREV):
             if j != i and self._state[j]:

@@ -2,7 +2,7 @@
 
 Pure part `RemoteHmi`: status datagrams and button events in (with t_ms), command packets and a
 rendered framebuffer out. After `link_timeout_ms` without a valid status it draws the link-lost
-page instead of stale data. PAGE is local; ENGAGE, STANDBY, NEXT_WP, PREV_WP and ACK are signed
+page instead of stale data. PAGE is local; ENGAGE, STANDBY, NEXT_WP, PREV_WP, ACK and TRIAL (PAGE held 3 s) are signed
 with the per-boat key (tphmi.auth) and sent; the boat's mode machine decides, the remote shows the
 outcome from the next status (including an engage refusal and its reason).
 
@@ -20,7 +20,7 @@ from trackpilot.compat import ticks_diff
 from tphmi.pages import N_PAGES, PAGE_MAIN
 from tphmi.status import HmiStatus, decode_status
 
-_SIGNED = ("ENGAGE", "STANDBY", "NEXT_WP", "PREV_WP", "ACK")
+_SIGNED = ("ENGAGE", "STANDBY", "NEXT_WP", "PREV_WP", "ACK", "TRIAL")
 
 
 class RemoteHmi:

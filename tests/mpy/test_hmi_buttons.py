@@ -99,6 +99,18 @@ def test_next_prev_long_press():
     T.eq(r.names(), ["NEXT_WP", "PREV_WP"])
 
 
+def test_page_held_alone_starts_a_trial_once():
+    # issue 11: the crew starts the commissioning trial from the panel (only STANDBY takes it)
+    r = Run().hold(20).hold(2900, page=1).hold(100)
+    T.eq(r.names(), ["PAGE"], "2.9 s is not enough")
+    r = Run().hold(20).hold(10000, page=1).hold(100)
+    T.eq(r.names(), ["PAGE", "TRIAL"], "once per press, however long")
+    r = Run().hold(20).hold(1000, page=1).hold(3000, page=1, ack=1).hold(100)
+    T.true("TRIAL" not in r.names(), "another button during the hold: no trial")
+    r = Run().hold(20).hold(500, stby=1, page=1).hold(3500, page=1).hold(100)
+    T.true("TRIAL" not in r.names(), "pressed together with another button: no trial")
+
+
 def test_across_tick_wrap():
     r = Run(t0=TICKS_PERIOD - 500).hold(20).hold(1200, auto=1)
     T.eq(r.names(), ["ENGAGE"])
