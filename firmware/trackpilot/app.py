@@ -32,6 +32,7 @@ try:
 except ImportError:  # pragma: no cover
     import uasyncio as asyncio
 
+GC_THRESHOLD_B = 4096  # a collection after this many bytes allocated (docs/MEMORY.md)
 TASKS = ("gnss", "seatalk_rx", "seatalk_tx", "pilot", "motor", "wind", "inputs", "logger", "telemetry")
 
 
@@ -43,6 +44,10 @@ def _error_text(e):
 
 class App:
     def __init__(self, wiring, cfg, cfg_problems=(), reset_cause="unknown", core_class=Autopilot):
+        # from here on also collect after every GC_THRESHOLD_B allocated: an epoch's allocations
+        # then stay near the bottom of the free heap instead of sweeping through it, so the values
+        # kept from one epoch to the next do not cut the rest into pieces (docs/MEMORY.md)
+        gc.threshold(GC_THRESHOLD_B)
         from trackpilot.record import logger
 
         # the largest buffers first (the log's 2 KB write buffer and 2 KB header frame), while the
