@@ -32,7 +32,13 @@ try:
 except ImportError:  # pragma: no cover
     import uasyncio as asyncio
 
-GC_THRESHOLD_B = 4096  # a collection after this many bytes allocated (docs/MEMORY.md)
+# On a small heap (an ESP32 without PSRAM) a collection also runs after every heap/GC_THRESHOLD_DIV
+# bytes allocated, at least GC_THRESHOLD_MIN_B: about 5 KB there, which keeps the free heap in one
+# piece (docs/MEMORY.md). Not on a large heap (PSRAM, the unix port's megabytes): nothing to fix
+# there, and a sweep grows with the heap (it made the simulator 4x slower).
+GC_THRESHOLD_MIN_B = 4096
+GC_THRESHOLD_DIV = 32
+GC_THRESHOLD_HEAP_MAX_B = 262144
 TASKS = ("gnss", "seatalk_rx", "seatalk_tx", "pilot", "motor", "wind", "inputs", "logger", "telemetry")
 
 
@@ -44,10 +50,12 @@ def _error_text(e):
 
 class App:
     def __init__(self, wiring, cfg, cfg_problems=(), reset_cause="unknown", core_class=Autopilot):
-        # from here on also collect after every GC_THRESHOLD_B allocated: an epoch's allocations
+        # from here on also collect after every heap/GC_THRESHOLD_DIV allocated: an epoch's allocations
         # then stay near the bottom of the free heap instead of sweeping through it, so the values
         # kept from one epoch to the next do not cut the rest into pieces (docs/MEMORY.md)
-        gc.threshold(GC_THRESHOLD_B)
+        heap_b = gc.mem_free() + gc.mem_alloc()
+        if heap_b <= GC_THRESHOLD_HEAP_MAX_B:
+            gc.threshold(max(GC_THRESHOLD_MIN_B, heap_b // GC_THRESHOLD_DIV))
         from trackpilot.record import logger
 
         # the largest buffers first (the log's 2 KB write buffer and 2 KB header frame), while the
