@@ -176,6 +176,14 @@ def run_fault(job):
                reengage_s=REENGAGE_S)
     end_s = T_FAULT + (dur or 0.0)
     _person(r, end_s)
+    row, fired = _sail(r, out, job, lambda ctl, evs, res: evaluate(name, dur, ctl, evs, res, r), text)
+    if fired:
+        row["note"] = "firmware stopped answering, run killed: %s; %s" % (fired, row["note"])
+    return row
+
+
+def _sail(r, out, job, judge, fault):
+    """Run r under the wall-clock watchdog, decode its log, judge it: (row, what the dog killed)."""
     from .bench_perf import watchdog
 
     dog = watchdog(r, job.get("timeout", 300))
@@ -186,16 +194,13 @@ def run_fault(job):
     except Exception as e:  # a log the decoder cannot read is a finding too
         ctl, evs = [], []
         res.setdefault("decode_error", str(e))
-    row = evaluate(name, dur, ctl, evs, res, r)
-    row.update({"fault": text, "finished": res["finished_s"] is not None, "stop": res["stop_reason"],
+    row = judge(ctl, evs, res)
+    row.update({"fault": fault, "finished": res["finished_s"] is not None, "stop": res["stop_reason"],
                 "failure": res["failure"], "timed_out": dog.fired})
-    if dog.fired:
-        row["note"] = "firmware stopped answering, run killed: %s; %s" % (dog.fired, row["note"])
-    return row
+    return row, dog.fired
 
 
 def run_case(job):
-    from .bench_perf import watchdog
     from .sim.runner import SimRun
 
     name, out = job["fault"], job["out"]
@@ -204,18 +209,7 @@ def run_case(job):
                faults=c["faults"], reengage_s=0.0 if name == "race_takeover_vs_recovery" else REENGAGE_S,
                fw_config_bytes=c["config"], duration_s=job.get("duration_s", T_FAULT + 60.0))
     _person(r, c["end_s"])
-    dog = watchdog(r, job.get("timeout", 300))
-    res = r.run()
-    dog.cancel()
-    try:
-        ctl, evs = _records(out, res)
-    except Exception as e:  # a log the decoder cannot read is a finding too
-        ctl, evs = [], []
-        res.setdefault("decode_error", str(e))
-    row = evaluate_case(name, ctl, evs, res, r)
-    row.update({"fault": name, "finished": res["finished_s"] is not None, "stop": res["stop_reason"],
-                "failure": res["failure"], "timed_out": dog.fired})
-    return row
+    return _sail(r, out, job, lambda ctl, evs, res: evaluate_case(name, ctl, evs, res, r), name)[0]
 
 
 def evaluate_case(name, ctl, evs, res, r):
