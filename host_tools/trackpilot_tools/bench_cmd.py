@@ -19,6 +19,7 @@ from collections import deque
 from pathlib import Path
 
 from . import bench_faults, bench_perf
+from .errors import UserError
 
 R_TURN_M = 5.0 / (1.1 * math.radians(30.0))  # the simulated boat's turning radius (8.7 m)
 
@@ -671,8 +672,7 @@ def run(args):
         from . import bench_robust
 
         if args.robust is not None and args.robust < 1:
-            print("--robust N: N >= 1 boats")
-            return 2
+            raise UserError("--robust N: N must be at least 1 boat")
         return bench_robust.run(args)
 
     final = Path(args.out).resolve()

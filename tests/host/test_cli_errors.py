@@ -32,6 +32,8 @@ CASES = [
     (["sim", TRACK, "--fw-set", "guidance.law=zigzag"], "guidance.law"),
     (["sim", TRACK, "--set", "boat.nope=1"], "unknown simulator parameter boat.nope"),
     (["sim", TRACK, "--params", "/nonexistent/p.json"], "no such parameter file"),
+    (["sim", TRACK, "--fw-config", "/nonexistent/config.json"], "no such firmware config file"),
+    (["bench", "--robust", "0"], "must be at least 1 boat"),
     (["sim", TRACK, "--params", "{NOTJSON}"], "not a JSON parameter file"),
     (["sim", TRACK, "--duration-s", "-5"], "--duration-s must be > 0"),
     (["replay", "nope.tpl"], "no such log"),
