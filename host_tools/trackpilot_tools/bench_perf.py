@@ -540,6 +540,18 @@ _STAGE = re.compile(r"heap stage (.+?)\s+live\s+(\d+) B, free\s+(\d+) B, largest
                     r"(?:, frozen-code records\s+(\d+) B)?")
 
 
+_GC_STAGE = re.compile(r"gc stage (.+?)\s+(\d+) collections in (\d+) s simulated, ([\d.]+) per minute, "
+                       r"CPU mean (\d+) us, max (\d+) us")
+
+
+def parse_gc_stages(text):
+    """sim_main --heap-stages' collection lines (f32 builds) -> [{stage, collections, sim_s,
+    per_min, cpu_mean_us, cpu_max_us}]: collections since the previous stage."""
+    return [{"stage": m.group(1).strip(), "collections": int(m.group(2)), "sim_s": int(m.group(3)),
+             "per_min": float(m.group(4)), "cpu_mean_us": int(m.group(5)), "cpu_max_us": int(m.group(6))}
+            for m in _GC_STAGE.finditer(text)]
+
+
 def build_frozen():
     """The 32-bit single-precision interpreter with the firmware frozen in (tools/README.md).
     Returns (path, None) or (None, why)."""
@@ -590,7 +602,7 @@ def frozen_heap(job):
                              "memory_error": fig.get("memory_error"), "sim_s": fig.get("sim_s"),
                              "peak_heap_B": fig.get("peak_heap_B"), "gc_max_pause_us": fig.get("gc_max_pause_us"),
                              "failure": fig.get("failure"), "stderr_tail": err[-800:],
-                             "stages": parse_heap_stages(err)})
+                             "stages": parse_heap_stages(err), "gc": parse_gc_stages(err)})
     finally:
         if saved is None:
             os.environ.pop("MICROPYTHON", None)
