@@ -8,9 +8,11 @@ one (parse into a new object, swap only on success).
 
 Compact for the ESP32's ~110 KB heap: the file is read line by line twice (first to count the
 waypoints, refusing more than MAX_WAYPOINTS before anything is allocated for them, then into
-integer arrays sized for them, in pages of 128 so no large block is needed); about 25-31 B per
-waypoint in all (was ~550 B as Waypoint/Leg objects and boxed floats). A leg is computed from its
-two waypoints when asked for; the last few are cached.
+integer arrays sized for them, in pages of 128 so no large block is needed): 10.9 B per waypoint
+without names or radii, 22 B with both and a blank line after each (measured at 2000 on the
+32-bit build; was ~550 B as Waypoint/Leg objects and boxed floats). A leg is computed from its two
+waypoints when asked for, the last few cached; track distances and line numbers are recomputed
+too (docs/MEMORY.md).
 
 Usage:
     from trackpilot.nav import track
@@ -18,6 +20,7 @@ Usage:
     for w in track.validate(trk, {"turn_radius_m": 9.0}):
         print(w)
     leg = trk.leg(0)   # leg.length_m, leg.bearing_deg, leg.turn_deg, leg.speed_mps, leg.start_m
+    trk.start_m(5), trk.line_no(5)    # track distance to waypoint 5 (m), its line in the file
     trk.waypoints[3].name, trk.legs[2].turn_deg, len(trk.waypoints)    # sequence views
 """
 import math
@@ -47,7 +50,7 @@ class TrackError(ValueError):
         self.message = message
 
 
-MAX_WAYPOINTS = 2000  # the firmware's limit (tracks/README.md): about 50 KB of heap at most
+MAX_WAYPOINTS = 2000  # the firmware's limit (tracks/README.md): 22-44 KB of heap
 MAX_LINE_BYTES = 512  # a longer line is not a track line (and would cost a large string)
 MAX_LINES = 65535  # line numbers are kept as 16-bit ints
 # Floats as stored: single precision on a float32 build (the ESP32), else double, so a stored
