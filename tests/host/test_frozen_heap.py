@@ -82,7 +82,7 @@ def test_loop_completes_in_the_esp32_heap(loop_at_esp32_heap):
 
 def test_loop_steady_largest_free_block(loop_at_esp32_heap):
     """Issue 13's goal: the free heap in steady state keeps a 16 KB block (it was in pieces of
-    2.5-6 KB before the app collected after every heap/32 bytes allocated, docs/MEMORY.md)."""
+    2.5-6 KB before the app collected after every heap/16 bytes allocated, docs/MEMORY.md)."""
     records, run = loop_at_esp32_heap
     steady = [s for s in run["stages"] if s["stage"].startswith("t=")]
     assert steady and min(s["largest_free_B"] for s in steady) >= STEADY_LARGEST_FREE_B, steady
