@@ -224,9 +224,11 @@ int main(int argc, char **argv) {
 size_t gcinfo_n_collections;
 uint64_t gcinfo_collect_cpu_ns;
 uint64_t gcinfo_collect_cpu_max_ns;
+uint64_t gcinfo_blocks_before;  // blocks allocated up to the last collection (gc_alloc_amount is reset there)
 
 void gc_collect(void) {
     struct timespec t0, t1;
+    gcinfo_blocks_before += MP_STATE_MEM(gc_alloc_amount);
     clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t0);
     gc_collect_start();
     gc_helper_collect_regs_and_stack();

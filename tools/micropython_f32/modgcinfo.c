@@ -68,12 +68,22 @@ static mp_obj_t gcinfo_collections(size_t n_args, const mp_obj_t *args) {
 }
 static MP_DEFINE_CONST_FUN_OBJ_VAR_BETWEEN(gcinfo_collections_obj, 0, 1, gcinfo_collections);
 
+// `gcinfo.allocated()`: bytes allocated since start-up, freed or not (what gc.threshold counts:
+// whole 16-byte blocks, a realloc that moves counted again), for allocation rates.
+extern uint64_t gcinfo_blocks_before;
+
+static mp_obj_t gcinfo_allocated(void) {
+    return mp_obj_new_int_from_ull((gcinfo_blocks_before + MP_STATE_MEM(gc_alloc_amount)) * MICROPY_BYTES_PER_GC_BLOCK);
+}
+static MP_DEFINE_CONST_FUN_OBJ_0(gcinfo_allocated_obj, gcinfo_allocated);
+
 static const mp_rom_map_elem_t gcinfo_module_globals_table[] = {
     { MP_ROM_QSTR(MP_QSTR___name__), MP_ROM_QSTR(MP_QSTR_gcinfo) },
     { MP_ROM_QSTR(MP_QSTR_info), MP_ROM_PTR(&gcinfo_info_obj) },
     { MP_ROM_QSTR(MP_QSTR_loader), MP_ROM_PTR(&gcinfo_loader_obj) },
     { MP_ROM_QSTR(MP_QSTR_dump), MP_ROM_PTR(&gcinfo_dump_obj) },
     { MP_ROM_QSTR(MP_QSTR_collections), MP_ROM_PTR(&gcinfo_collections_obj) },
+    { MP_ROM_QSTR(MP_QSTR_allocated), MP_ROM_PTR(&gcinfo_allocated_obj) },
 };
 static MP_DEFINE_CONST_DICT(gcinfo_module_globals, gcinfo_module_globals_table);
 
