@@ -13,7 +13,7 @@ PATH = "/tmp/trackpilot_test_compact.csv"
 
 def test_live_heap_per_waypoint():
     # the old Waypoint/Leg objects cost ~550 B per waypoint; the arrays 23 B with stored track
-    # distances and line numbers, now 14.6-17.9 B for this file (issue 13's goal: 40 B)
+    # distances and line numbers, now 14.6-18.0 B for this file (issue 13's goal: 40 B)
     for n in (500, 2000):
         size, live, trk = track_heap.measure(n, PATH)
         t.true(live / n <= 20.0, "%d waypoints: %d B live, %.1f B each" % (n, live, live / n))

@@ -8,8 +8,8 @@ one (parse into a new object, swap only on success).
 
 Compact for the ESP32's ~110 KB heap: the file is read line by line twice (first to count the
 waypoints, refusing more than MAX_WAYPOINTS before anything is allocated for them, then into
-integer arrays sized for them, in pages of 128 so no large block is needed): 10.9 B per waypoint
-without names or radii, 22 B with both and a blank line after each (measured at 2000 on the
+integer arrays sized for them, in pages of 128 so no large block is needed): 11.0 B per waypoint
+without names or radii, 22.1 B with both and a blank line after each (measured at 2000 on the
 32-bit build; was ~550 B as Waypoint/Leg objects and boxed floats). A leg is computed from its two
 waypoints when asked for, the last few cached; track distances and line numbers are recomputed
 too (docs/MEMORY.md).
@@ -122,6 +122,7 @@ _LEG_CACHE = 8  # legs kept (direct-mapped by index): the current one and its ne
 
 _PAGE_SHIFT = 7
 _PAGE = 1 << _PAGE_SHIFT  # waypoints per page: no block larger than 1 KB is ever needed
+_START_SHIFT = 5  # a track distance kept every 32 waypoints: at most 31 legs to add (0.13 B each)
 
 
 class _Paged:
@@ -145,7 +146,7 @@ class _Paged:
 class Track:
     """The waypoints in preallocated integer arrays (pages of 128 waypoints): 10 B per waypoint
     (lat, lon, speed), + 2 B when the file gives radii, + 2 B and the name's bytes when it gives
-    names. Derived on demand instead of stored: the track distances (from one float per page),
+    names. Derived on demand instead of stored: the track distances (from one float per 32),
     the line numbers (from the few lines where the file does not go on line by line), the legs
     (a few cached). `waypoints` and `legs` are sequence views."""
 
@@ -179,8 +180,8 @@ class Track:
         self._n_breaks = 0
         self._last_line = -1
         z = None
-        n_pages = (n_max + _PAGE - 1) >> _PAGE_SHIFT
-        self._page_start_m = array(_FLOAT_CODE, bytearray((8 if _FLOAT_CODE == "d" else 4) * n_pages))
+        n_starts = (n_max + (1 << _START_SHIFT) - 1) >> _START_SHIFT
+        self._starts_m = array(_FLOAT_CODE, bytearray((8 if _FLOAT_CODE == "d" else 4) * n_starts))
         self.length_m = 0.0
         self._cache_i = [-1] * _LEG_CACHE
         self._cache_leg = [None] * _LEG_CACHE
@@ -219,12 +220,12 @@ class Track:
         self.n = i + 1
 
     def finish(self):
-        """Track distances of the pages' first waypoints; the sequence views."""
+        """Track distances of every 32nd waypoint; the sequence views."""
         n = self.n
         s = 0.0
         for i in range(n):
-            if i & (_PAGE - 1) == 0:
-                self._page_start_m[i >> _PAGE_SHIFT] = s
+            if i & ((1 << _START_SHIFT) - 1) == 0:
+                self._starts_m[i >> _START_SHIFT] = s
             if i + 1 < n:
                 s += self.leg_length_m(i)
         self.length_m = s
@@ -233,13 +234,13 @@ class Track:
 
     def start_m(self, i):
         """Track distance from waypoint 0 to waypoint i (m): the same sum, in the same order, as
-        the whole track's, from the previous leg if cached, else from i's page start."""
+        the whole track's, from the previous leg if cached, else from the last kept distance."""
         slot = (i - 1) % _LEG_CACHE
         if i > 0 and self._cache_i[slot] == i - 1:
             prev = self._cache_leg[slot]
             return prev.start_m + prev.length_m
-        s = self._page_start_m[i >> _PAGE_SHIFT]
-        for j in range(i & ~(_PAGE - 1), i):
+        s = self._starts_m[i >> _START_SHIFT]
+        for j in range(i & ~((1 << _START_SHIFT) - 1), i):
             s += self.leg_length_m(j)
         return s
 
