@@ -635,6 +635,11 @@ def frozen_heap_lines(fh):
             L.append("  | %s | %d | %d | %s | %s | %s |" % (
                 s["stage"], s["live_B"], s["free_B"], _fmt(s["largest_free_B"]), _fmt(ld),
                 "-" if ld is None else s["live_B"] - ld))
+        if r.get("gc"):
+            L.append("")
+            L.append("  Collections (the app's and gc.threshold's; CPU time on this host): " + "; ".join(
+                "%s: %.0f per simulated minute, %d us mean, %d us max" % (g["stage"], g["per_min"], g["cpu_mean_us"],
+                                                                        g["cpu_max_us"]) for g in r["gc"]) + ".")
     return L
 
 

@@ -123,3 +123,18 @@ def test_2000_waypoints_in_the_esp32_heap(frozen, tmp_path):
     # every collection counted (the app's once a second and gc.threshold's), MEMORY.md states them
     gc_steady = [g for g in run["gc"] if g["stage"] == "t=%d s" % MAX_TRACK_S]
     assert gc_steady and gc_steady[0]["collections"] >= MAX_TRACK_S, run["gc"]
+
+
+def test_gc_stage_lines_parsed():
+    """sim_main's collection lines reach the bench's figures and report (no build needed)."""
+    err = ("sim_main: gc stage t=600 s          21277 collections in 600 s simulated, 2127.7 per minute, "
+           "CPU mean 169 us, max 813 us (host)\n"
+           "sim_main: heap stage t=600 s          live 127376 B, free  31216 B, largest free block  26128 B, "
+           "frozen-code records  48832 B\n")
+    gc_stages = bench_perf.parse_gc_stages(err)
+    assert gc_stages == [{"stage": "t=600 s", "collections": 21277, "sim_s": 600, "per_min": 2127.7,
+                          "cpu_mean_us": 169, "cpu_max_us": 813}]
+    assert bench_perf.parse_heap_stages(err)[0]["largest_free_B"] == 26128
+    lines = bench_perf.frozen_heap_lines({"runs": [{"track": "t", "heap": 162368, "ok": True, "peak_heap_B": 1,
+                                                    "gc_max_pause_us": 2, "stages": [], "gc": gc_stages}]})
+    assert any("2128 per simulated minute, 169 us mean, 813 us max" in x for x in lines), lines
