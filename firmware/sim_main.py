@@ -59,14 +59,38 @@ def heap_stage(name):
         ", frozen-code records %6d B" % loader if loader else ""))
 
 
+_gc_last = [0, 0, 0]  # (simulated ms, collections, their CPU us) at the previous gc_stage
+
+
+def gc_stage(name, t_ms):
+    """--heap-stages on the f32 builds: the collections since the previous call (the app's own
+    and those its gc.threshold triggers), per simulated minute, and their CPU time on this host."""
+    try:
+        import gcinfo
+
+        n, cpu_us, max_us = gcinfo.collections(True)
+    except (ImportError, AttributeError):
+        return
+    dn = n - _gc_last[1]
+    dt_s = (t_ms - _gc_last[0]) / 1000
+    if dn > 0 and dt_s > 0:
+        sys.stderr.write("sim_main: gc stage %-16s %d collections in %d s simulated, %.1f per minute, CPU mean %d us, "
+                         "max %d us (host)\n" % (name, dn, dt_s, dn * 60 / dt_s, (cpu_us - _gc_last[2]) // dn, max_us))
+    _gc_last[0] = t_ms
+    _gc_last[1] = n
+    _gc_last[2] = cpu_us
+
+
 async def _heap_watch(link, app):
     """--heap-stages: the heap once the tasks run, then in steady state (every 10 min)."""
     import asyncio
 
     await asyncio.sleep_ms(0)
     heap_stage("tasks started")
+    gc_stage("tasks started", link.t_ms)
     while True:
         await asyncio.sleep_ms(600000)
+        gc_stage("t=%d s" % (link.t_ms // 1000), link.t_ms)
         heap_stage("t=%d s" % (link.t_ms // 1000))
 
 

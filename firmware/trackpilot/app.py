@@ -33,11 +33,12 @@ except ImportError:  # pragma: no cover
     import uasyncio as asyncio
 
 # On a small heap (an ESP32 without PSRAM) a collection also runs after every heap/GC_THRESHOLD_DIV
-# bytes allocated, at least GC_THRESHOLD_MIN_B: about 5 KB there, which keeps the free heap in one
-# piece (docs/MEMORY.md). Not on a large heap (PSRAM, the unix port's megabytes): nothing to fix
-# there, and a sweep grows with the heap (it made the simulator 4x slower).
+# bytes allocated, at least GC_THRESHOLD_MIN_B: about 10 KB there, which keeps the free heap in one
+# piece (docs/MEMORY.md; heap/32 kept the same free block with twice the collections). Not on a
+# large heap (PSRAM, the unix port's megabytes): nothing to fix there, and a sweep grows with the
+# heap (it made the simulator 4x slower).
 GC_THRESHOLD_MIN_B = 4096
-GC_THRESHOLD_DIV = 32
+GC_THRESHOLD_DIV = 16
 GC_THRESHOLD_HEAP_MAX_B = 262144
 TASKS = ("gnss", "seatalk_rx", "seatalk_tx", "pilot", "motor", "wind", "inputs", "logger", "telemetry")
 

@@ -540,6 +540,18 @@ _STAGE = re.compile(r"heap stage (.+?)\s+live\s+(\d+) B, free\s+(\d+) B, largest
                     r"(?:, frozen-code records\s+(\d+) B)?")
 
 
+_GC_STAGE = re.compile(r"gc stage (.+?)\s+(\d+) collections in (\d+) s simulated, ([\d.]+) per minute, "
+                       r"CPU mean (\d+) us, max (\d+) us")
+
+
+def parse_gc_stages(text):
+    """sim_main --heap-stages' collection lines (f32 builds) -> [{stage, collections, sim_s,
+    per_min, cpu_mean_us, cpu_max_us}]: collections since the previous stage."""
+    return [{"stage": m.group(1).strip(), "collections": int(m.group(2)), "sim_s": int(m.group(3)),
+             "per_min": float(m.group(4)), "cpu_mean_us": int(m.group(5)), "cpu_max_us": int(m.group(6))}
+            for m in _GC_STAGE.finditer(text)]
+
+
 def build_frozen():
     """The 32-bit single-precision interpreter with the firmware frozen in (tools/README.md).
     Returns (path, None) or (None, why)."""
@@ -590,7 +602,7 @@ def frozen_heap(job):
                              "memory_error": fig.get("memory_error"), "sim_s": fig.get("sim_s"),
                              "peak_heap_B": fig.get("peak_heap_B"), "gc_max_pause_us": fig.get("gc_max_pause_us"),
                              "failure": fig.get("failure"), "stderr_tail": err[-800:],
-                             "stages": parse_heap_stages(err)})
+                             "stages": parse_heap_stages(err), "gc": parse_gc_stages(err)})
     finally:
         if saved is None:
             os.environ.pop("MICROPYTHON", None)
@@ -623,6 +635,11 @@ def frozen_heap_lines(fh):
             L.append("  | %s | %d | %d | %s | %s | %s |" % (
                 s["stage"], s["live_B"], s["free_B"], _fmt(s["largest_free_B"]), _fmt(ld),
                 "-" if ld is None else s["live_B"] - ld))
+        if r.get("gc"):
+            L.append("")
+            L.append("  Collections (the app's and gc.threshold's; CPU time on this host): " + "; ".join(
+                "%s: %.0f per simulated minute, %d us mean, %d us max" % (g["stage"], g["per_min"], g["cpu_mean_us"],
+                                                                        g["cpu_max_us"]) for g in r["gc"]) + ".")
     return L
 
 

@@ -8,6 +8,7 @@
 // An uncaught exception prints a traceback to stderr and exits 1; sys.exit(n) exits n.
 #include <errno.h>
 #include <stdio.h>
+#include <time.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
@@ -217,10 +218,28 @@ int main(int argc, char **argv) {
     return ret;
 }
 
+// Collections and their CPU time (gcinfo.collections()): every collection, the app's own and
+// those gc.threshold() triggers. CPU time of this thread, so other processes on a busy host do
+// not count; on the unix port, not an ESP32 figure.
+size_t gcinfo_n_collections;
+uint64_t gcinfo_collect_cpu_ns;
+uint64_t gcinfo_collect_cpu_max_ns;
+uint64_t gcinfo_blocks_before;  // blocks allocated up to the last collection (gc_alloc_amount is reset there)
+
 void gc_collect(void) {
+    struct timespec t0, t1;
+    gcinfo_blocks_before += MP_STATE_MEM(gc_alloc_amount);
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t0);
     gc_collect_start();
     gc_helper_collect_regs_and_stack();
     gc_collect_end();
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t1);
+    uint64_t ns = (uint64_t)(t1.tv_sec - t0.tv_sec) * 1000000000u + (uint64_t)t1.tv_nsec - (uint64_t)t0.tv_nsec;
+    gcinfo_n_collections++;
+    gcinfo_collect_cpu_ns += ns;
+    if (ns > gcinfo_collect_cpu_max_ns) {
+        gcinfo_collect_cpu_max_ns = ns;
+    }
 }
 
 mp_import_stat_t mp_import_stat(const char *path) {

@@ -49,11 +49,41 @@ static mp_obj_t gcinfo_dump(void) {
 }
 static MP_DEFINE_CONST_FUN_OBJ_0(gcinfo_dump_obj, gcinfo_dump);
 
+// `gcinfo.collections()`: (collections, their CPU time in us, the longest in us) since start-up,
+// counted in gc_collect (main.c); `gcinfo.collections(True)` also restarts the longest.
+extern size_t gcinfo_n_collections;
+extern uint64_t gcinfo_collect_cpu_ns;
+extern uint64_t gcinfo_collect_cpu_max_ns;
+
+static mp_obj_t gcinfo_collections(size_t n_args, const mp_obj_t *args) {
+    mp_obj_t items[3] = {
+        mp_obj_new_int_from_uint(gcinfo_n_collections),
+        mp_obj_new_int_from_ull(gcinfo_collect_cpu_ns / 1000u),
+        mp_obj_new_int_from_uint((size_t)(gcinfo_collect_cpu_max_ns / 1000u)),
+    };
+    if (n_args > 0 && mp_obj_is_true(args[0])) {
+        gcinfo_collect_cpu_max_ns = 0;
+    }
+    return mp_obj_new_tuple(3, items);
+}
+static MP_DEFINE_CONST_FUN_OBJ_VAR_BETWEEN(gcinfo_collections_obj, 0, 1, gcinfo_collections);
+
+// `gcinfo.allocated()`: bytes allocated since start-up, freed or not (what gc.threshold counts:
+// whole 16-byte blocks, a realloc that moves counted again), for allocation rates.
+extern uint64_t gcinfo_blocks_before;
+
+static mp_obj_t gcinfo_allocated(void) {
+    return mp_obj_new_int_from_ull((gcinfo_blocks_before + MP_STATE_MEM(gc_alloc_amount)) * MICROPY_BYTES_PER_GC_BLOCK);
+}
+static MP_DEFINE_CONST_FUN_OBJ_0(gcinfo_allocated_obj, gcinfo_allocated);
+
 static const mp_rom_map_elem_t gcinfo_module_globals_table[] = {
     { MP_ROM_QSTR(MP_QSTR___name__), MP_ROM_QSTR(MP_QSTR_gcinfo) },
     { MP_ROM_QSTR(MP_QSTR_info), MP_ROM_PTR(&gcinfo_info_obj) },
     { MP_ROM_QSTR(MP_QSTR_loader), MP_ROM_PTR(&gcinfo_loader_obj) },
     { MP_ROM_QSTR(MP_QSTR_dump), MP_ROM_PTR(&gcinfo_dump_obj) },
+    { MP_ROM_QSTR(MP_QSTR_collections), MP_ROM_PTR(&gcinfo_collections_obj) },
+    { MP_ROM_QSTR(MP_QSTR_allocated), MP_ROM_PTR(&gcinfo_allocated_obj) },
 };
 static MP_DEFINE_CONST_DICT(gcinfo_module_globals, gcinfo_module_globals_table);
 

@@ -101,17 +101,19 @@ class Progress:
 
     def _join(self, lat_e7, lon_e7, lat_hp, lon_hp):
         window = self.join_window_m if self._join_window is None else self._join_window
-        starts = self.track.start_m
         i0 = self.leg
-        limit_m = starts[i0] + window
+        start_m = self.track.start_m(i0)  # leg j's track distance, summed on as j goes
+        limit_m = start_m + window
         best = -1
         best_d = 0.0
         j = i0
-        while j < self.n_legs and starts[j] <= limit_m:
+        while j < self.n_legs and start_m <= limit_m:
             a, x, d = self._pos(j, lat_e7, lon_e7, lat_hp, lon_hp)
-            if a < self.track.leg(j).length_m and (best < 0 or d < best_d):
+            length_m = self.track.leg(j).length_m
+            if a < length_m and (best < 0 or d < best_d):
                 best = j
                 best_d = d
+            start_m += length_m
             j += 1
         if best < 0:  # past every leg in the window: take the last one looked at
             best = j - 1

@@ -8,9 +8,11 @@ one (parse into a new object, swap only on success).
 
 Compact for the ESP32's ~110 KB heap: the file is read line by line twice (first to count the
 waypoints, refusing more than MAX_WAYPOINTS before anything is allocated for them, then into
-integer arrays sized for them, in pages of 128 so no large block is needed); about 25-31 B per
-waypoint in all (was ~550 B as Waypoint/Leg objects and boxed floats). A leg is computed from its
-two waypoints when asked for; the last few are cached.
+integer arrays sized for them, in pages of 128 so no large block is needed): 11.0 B per waypoint
+without names or radii, 22.1 B with both and a blank line after each (measured at 2000 on the
+32-bit build; was ~550 B as Waypoint/Leg objects and boxed floats). A leg is computed from its two
+waypoints when asked for, the last few cached; track distances and line numbers are recomputed
+too (docs/MEMORY.md).
 
 Usage:
     from trackpilot.nav import track
@@ -18,6 +20,7 @@ Usage:
     for w in track.validate(trk, {"turn_radius_m": 9.0}):
         print(w)
     leg = trk.leg(0)   # leg.length_m, leg.bearing_deg, leg.turn_deg, leg.speed_mps, leg.start_m
+    trk.start_m(5), trk.line_no(5)    # track distance to waypoint 5 (m), its line in the file
     trk.waypoints[3].name, trk.legs[2].turn_deg, len(trk.waypoints)    # sequence views
 """
 import math
@@ -47,7 +50,7 @@ class TrackError(ValueError):
         self.message = message
 
 
-MAX_WAYPOINTS = 2000  # the firmware's limit (tracks/README.md): about 50 KB of heap at most
+MAX_WAYPOINTS = 2000  # the firmware's limit (tracks/README.md): 22-44 KB of heap
 MAX_LINE_BYTES = 512  # a longer line is not a track line (and would cost a large string)
 MAX_LINES = 65535  # line numbers are kept as 16-bit ints
 # Floats as stored: single precision on a float32 build (the ESP32), else double, so a stored
@@ -119,6 +122,7 @@ _LEG_CACHE = 8  # legs kept (direct-mapped by index): the current one and its ne
 
 _PAGE_SHIFT = 7
 _PAGE = 1 << _PAGE_SHIFT  # waypoints per page: no block larger than 1 KB is ever needed
+_START_SHIFT = 5  # a track distance kept every 32 waypoints: at most 31 legs to add (0.13 B each)
 
 
 class _Paged:
@@ -140,29 +144,44 @@ class _Paged:
 
 
 class Track:
-    """The waypoints in preallocated integer arrays (pages of 128 waypoints, about 28 B per
-    waypoint plus its name's bytes); legs derived on demand, a few cached. `waypoints` and
-    `legs` are sequence views."""
+    """The waypoints in preallocated integer arrays (pages of 128 waypoints): 10 B per waypoint
+    (lat, lon, speed), + 2 B when the file gives radii, + 2 B and the name's bytes when it gives
+    names. Derived on demand instead of stored: the track distances (from one float per 32),
+    the line numbers (from the few lines where the file does not go on line by line), the legs
+    (a few cached). `waypoints` and `legs` are sequence views."""
 
-    def __init__(self, n_max, name=None, name_bytes=()):
-        """name_bytes: the names' bytes per page (as _survey counts them)."""
+    def __init__(self, n_max, name=None, name_bytes=(), line_breaks=-1, radii=True):
+        """name_bytes: the names' bytes per page (as _survey counts them); line_breaks: how many
+        waypoints do not follow the previous one's line (-1: keep every line number, 0: none);
+        radii: whether any waypoint has an arrival radius."""
         self.name = name
         self.n = 0
         # everything allocated here, before the parse, so its garbage cannot split the heap
-        fb = 8 if _FLOAT_CODE == "d" else 4
         z = bytearray(4 * _PAGE)
         self.lat_e7 = _Paged("i", 4, n_max, z)
         self.lon_e7 = _Paged("i", 4, n_max, z)
-        self.start_m = _Paged(_FLOAT_CODE, fb, n_max, z if fb == 4 else bytearray(fb * _PAGE))
         z = bytearray(2 * _PAGE)
         self.speed_mmps = _Paged("H", 2, n_max, z)  # mm/s (at most 8000)
-        self.radius_cm = _Paged("H", 2, n_max, z)  # 0: none
-        self.line_no = _Paged("H", 2, n_max, z)
-        self.name_end = _Paged("H", 2, n_max, z)  # end of waypoint i's name in its page's names
-        z = None
-        self._names = [bytearray(k) for k in name_bytes]
+        self.radius_cm = _Paged("H", 2, n_max, z) if radii else None  # 0: none
+        named = False
+        for k in name_bytes:
+            named = named or k > 0
+        self.name_end = _Paged("H", 2, n_max, z) if named else None  # end of wp i's name in its page's
+        self._names = [bytearray(k) for k in name_bytes] if named else None
         self._names_len = 0
-        # start_m: track distance to each waypoint (floats), filled by finish()
+        # line numbers: every one (more breaks than half the waypoints), else (waypoint, line)
+        # pairs where a waypoint's line is not the previous one's + 1 (1 pair for most files)
+        if line_breaks < 0 or 2 * line_breaks > n_max:
+            self._lines = _Paged("H", 2, n_max, z)
+            self._breaks = None
+        else:
+            self._lines = None
+            self._breaks = array("H", bytearray(4 * line_breaks))
+        self._n_breaks = 0
+        self._last_line = -1
+        z = None
+        n_starts = (n_max + (1 << _START_SHIFT) - 1) >> _START_SHIFT
+        self._starts_m = array(_FLOAT_CODE, bytearray((8 if _FLOAT_CODE == "d" else 4) * n_starts))
         self.length_m = 0.0
         self._cache_i = [-1] * _LEG_CACHE
         self._cache_leg = [None] * _LEG_CACHE
@@ -174,26 +193,73 @@ class Track:
         self.lat_e7[i] = lat_e7
         self.lon_e7[i] = lon_e7
         self.speed_mmps[i] = speed_mmps
-        self.radius_cm[i] = radius_cm
-        self.line_no[i] = line_no
-        k = 0 if i & (_PAGE - 1) == 0 else self._names_len
-        if name_b:
-            self._names[i >> _PAGE_SHIFT][k : k + len(name_b)] = name_b
-            k += len(name_b)
-        self._names_len = k
-        self.name_end[i] = k
+        if radius_cm:
+            if self.radius_cm is None:  # only if the file changed between the passes
+                raise TrackError(line_no, "the file changed while it was read")
+            self.radius_cm[i] = radius_cm
+        if self._lines is not None:
+            self._lines[i] = line_no
+        elif line_no != self._last_line + 1 or i == 0:
+            k = 2 * self._n_breaks
+            if k < len(self._breaks):
+                self._breaks[k] = i
+                self._breaks[k + 1] = line_no
+                self._n_breaks += 1
+            elif line_no:  # only if the file changed between the passes (the parser checks)
+                raise TrackError(line_no, "the file changed while it was read")
+        self._last_line = line_no
+        if self.name_end is not None:
+            k = 0 if i & (_PAGE - 1) == 0 else self._names_len
+            if name_b:
+                self._names[i >> _PAGE_SHIFT][k : k + len(name_b)] = name_b
+                k += len(name_b)
+            self._names_len = k
+            self.name_end[i] = k
+        elif name_b:
+            raise TrackError(line_no, "the file changed while it was read")
         self.n = i + 1
 
     def finish(self):
-        """Track distances of the waypoints; the sequence views."""
+        """Track distances of every 32nd waypoint; the sequence views."""
         n = self.n
         s = 0.0
-        for i in range(n - 1):
-            s += self.leg_length_m(i)
-            self.start_m[i + 1] = s
+        for i in range(n):
+            if i & ((1 << _START_SHIFT) - 1) == 0:
+                self._starts_m[i >> _START_SHIFT] = s
+            if i + 1 < n:
+                s += self.leg_length_m(i)
         self.length_m = s
         self.waypoints = _Seq(n, self.waypoint)
         self.legs = _Seq(n - 1 if n > 1 else 0, self.leg)
+
+    def start_m(self, i):
+        """Track distance from waypoint 0 to waypoint i (m): the same sum, in the same order, as
+        the whole track's, from the previous leg if cached, else from the last kept distance."""
+        slot = (i - 1) % _LEG_CACHE
+        if i > 0 and self._cache_i[slot] == i - 1:
+            prev = self._cache_leg[slot]
+            return prev.start_m + prev.length_m
+        s = self._starts_m[i >> _START_SHIFT]
+        for j in range(i & ~((1 << _START_SHIFT) - 1), i):
+            s += self.leg_length_m(j)
+        return s
+
+    def line_no(self, i):
+        """Waypoint i's line in the file (0: not known, e.g. a track from a log)."""
+        if self._lines is not None:
+            return self._lines[i]
+        b = self._breaks
+        lo = 0
+        hi = self._n_breaks
+        while hi > lo:  # the last break at or before i
+            mid = (lo + hi) >> 1
+            if b[2 * mid] <= i:
+                lo = mid + 1
+            else:
+                hi = mid
+        if lo == 0:
+            return 0
+        return b[2 * lo - 1] + i - b[2 * lo - 2]
 
     # ---- waypoint fields
     def speed_mps(self, i):
@@ -201,17 +267,21 @@ class Track:
 
     def radius_m(self, i):
         """Waypoint i's arrival radius (m) or None."""
+        if self.radius_cm is None:
+            return None
         r = self.radius_cm[i]
         return r / 100 if r else None
 
     def name_of(self, i):
+        if self.name_end is None:
+            return None
         a = self.name_end[i - 1] if i & (_PAGE - 1) else 0
         b = self.name_end[i]
         return self._names[i >> _PAGE_SHIFT][a:b].decode() if b > a else None
 
     def waypoint(self, i):
         return Waypoint(self.lat_e7[i], self.lon_e7[i], self.speed_mps(i), self.name_of(i),
-                        self.radius_m(i), self.line_no[i])
+                        self.radius_m(i), self.line_no(i))
 
     # ---- legs
     def leg_length_m(self, i):
@@ -227,7 +297,7 @@ class Track:
         d, brg = geo.dist_bearing(lat[i], lon[i], lat[i + 1], lon[i + 1])
         end_brg = geo.final_bearing_deg(lat[i], lon[i], lat[i + 1], lon[i + 1])
         leg = Leg(i, d, brg, end_brg, self.speed_mps(i))
-        leg.start_m = self.start_m[i]
+        leg.start_m = self.start_m(i)
         leg.lat_e7 = lat[i]  # the start waypoint: the origin of the leg's frame
         leg.lon_e7 = lon[i]
         if i + 2 < self.n:
@@ -252,7 +322,12 @@ def from_waypoints(waypoints, name=None):
     per_page = [0] * ((len(names) + _PAGE - 1) // _PAGE)
     for i in range(len(names)):
         per_page[i >> _PAGE_SHIFT] += len(names[i])
-    trk = Track(len(waypoints), name, per_page)
+    lines = 0
+    radii = False
+    for w in waypoints:
+        lines = lines or getattr(w, "line_no", 0)
+        radii = radii or getattr(w, "radius_m", None) is not None
+    trk = Track(len(waypoints), name, per_page, -1 if lines else 0, radii)
     for w, nb in zip(waypoints, names):
         r = getattr(w, "radius_m", None)
         trk.append(w.lat_e7, w.lon_e7, _mm(w.speed_mps), nb, 0 if r is None else max(1, _cm(r)),
@@ -372,11 +447,16 @@ def _rewind(src):
 
 
 def _survey(src):
-    """First pass: (waypoint lines, bytes of their names per page), refusing more than MAX_WAYPOINTS
-    before anything is allocated for them."""
+    """First pass: (waypoint lines, bytes of their names per page, waypoints whose line is not the
+    previous one's + 1, whether any has a radius), refusing more than MAX_WAYPOINTS before
+    anything is allocated for them."""
     name_col = -1
+    radius_col = -1
     n = 0
     name_bytes = []  # per page of _PAGE waypoints
+    breaks = 0
+    radii = False
+    last_line = -1
     seen_header = False
     for line_no, raw in _lines(src):
         if line_no > MAX_LINES:
@@ -387,6 +467,7 @@ def _survey(src):
         if not seen_header:
             cols = _header(line, line_no)
             name_col = cols.index("name") if "name" in cols else -1
+            radius_col = cols.index("radius_m") if "radius_m" in cols else -1
             seen_header = True
             continue
         if n & (_PAGE - 1) == 0:
@@ -395,11 +476,16 @@ def _survey(src):
         if n > MAX_WAYPOINTS:
             raise TrackError(line_no, "more than %d waypoints: the most a track may have "
                              "(tracks/README.md)" % MAX_WAYPOINTS)
-        if name_col >= 0:
+        if line_no != last_line + 1 or n == 1:
+            breaks += 1
+        last_line = line_no
+        if name_col >= 0 or radius_col >= 0:
             fields = line.split(",")
-            if name_col < len(fields):
+            if 0 <= name_col < len(fields):
                 name_bytes[-1] += len(fields[name_col].strip().encode())
-    return n, name_bytes
+            if 0 <= radius_col < len(fields) and fields[radius_col].strip():
+                radii = True
+    return n, name_bytes, breaks, radii
 
 
 def parse_track_csv(src, min_leg_m=MIN_LEG_M, max_speed_mps=MAX_SPEED_MPS, name=None):
@@ -408,9 +494,9 @@ def parse_track_csv(src, min_leg_m=MIN_LEG_M, max_speed_mps=MAX_SPEED_MPS, name=
     src: the CSV as str or bytes, or a file opened in binary mode (read twice, line by line:
     first to count the waypoints and refuse more than MAX_WAYPOINTS, then into arrays sized
     for them)."""
-    n_max, name_bytes = _survey(src)
+    n_max, name_bytes, breaks, radii = _survey(src)
     _rewind(src)
-    trk = Track(n_max, name, name_bytes)
+    trk = Track(n_max, name, name_bytes, breaks, radii)
     cols = None
     header_line = 0
     prev_line = 0
@@ -459,17 +545,17 @@ def parse_track_csv(src, min_leg_m=MIN_LEG_M, max_speed_mps=MAX_SPEED_MPS, name=
         raise TrackError(1, "no header line (lon, lat, speed_mps ...) and no waypoints")
     n = trk.n
     if n < 2:
-        raise TrackError(trk.line_no[n - 1] if n else header_line,
+        raise TrackError(trk.line_no(n - 1) if n else header_line,
                          "a track needs at least 2 waypoints, found %d" % n)
     for i in range(n - 1):
         if trk.speed_mmps[i] == 0:
-            raise TrackError(trk.line_no[i], "speed_mps 0 on a waypoint that starts a leg (only the "
+            raise TrackError(trk.line_no(i), "speed_mps 0 on a waypoint that starts a leg (only the "
                              "last waypoint may have speed 0)")
     for i in range(n - 1):
         d = trk.leg_length_m(i)
         if d < min_leg_m:
-            raise TrackError(trk.line_no[i + 1], "leg from line %d is %.1f m long; legs shorter "
-                             "than %.1f m cannot be steered" % (trk.line_no[i], d, min_leg_m))
+            raise TrackError(trk.line_no(i + 1), "leg from line %d is %.1f m long; legs shorter "
+                             "than %.1f m cannot be steered" % (trk.line_no(i), d, min_leg_m))
     trk.finish()
     return trk
 
