@@ -10,9 +10,11 @@ D2R = math.pi / 180.0
 
 
 def _synthetic(kp=1.1, tp=0.45, lag=0.2, comp_lag=0.6, comp_off=3.0, L=5.0, cur=(0.15, -0.1),
-               noise_deg=0.3, seed=0, rudder_available=True):
+               noise_deg=0.3, seed=0, rudder_available=True, wave_deg=0.0, wave_gain=0.0):
     """A boat obeying the Nomoto model exactly: steps, a zig-zag and two circles of rudder; the
-    pilot's compass a lagged true heading read at 2 Hz; GNSS at 5 Hz."""
+    pilot's compass a lagged true heading read at 2 Hz; GNSS at 5 Hz. `wave_deg`: wave yaw of that
+    amplitude (3.3 s period) on the hull's heading, which the pilot answers over the course steps
+    with `wave_gain` deg of rudder per deg of the wave yaw it saw 0.5 s earlier (its closed loop)."""
     rng = np.random.default_rng(seed)
     dt = 0.01
     t = np.arange(0.0, 330.0, dt)
@@ -26,6 +28,9 @@ def _synthetic(kp=1.1, tp=0.45, lag=0.2, comp_lag=0.6, comp_off=3.0, L=5.0, cur=
         rud[(t >= t0) & (t < t0 + 6)] = 12 * (1 if i % 2 == 0 else -1)
     rud[(t >= 200) & (t < 260)] = 28
     rud[(t >= 265) & (t < 325)] = -28
+    wave = wave_deg * np.sin(2 * math.pi * t / 3.3)
+    seen = np.interp(t - 0.5, t, wave)
+    rud = rud - np.where(t < 150, wave_gain * seen, 0.0)
     # the ram moves at 10 deg/s
     ram = np.zeros_like(rud)
     for k in range(1, len(t)):
@@ -53,7 +58,7 @@ def _synthetic(kp=1.1, tp=0.45, lag=0.2, comp_lag=0.6, comp_off=3.0, L=5.0, cur=
     ir = np.clip(np.round(read_t / dt).astype(int), 0, len(t) - 1)
     a = {
         "t": tg,
-        "heading": psis[ig] + rng.normal(0, noise_deg, len(ig)),
+        "heading": psis[ig] + wave[ig] + rng.normal(0, noise_deg, len(ig)),
         "heading_ok": np.ones(len(ig), bool),
         "vel_ok": np.ones(len(ig), bool),
         "sog": np.hypot(ve[ig], vn[ig]),
@@ -86,6 +91,24 @@ def test_nomoto_recovers_known_constants():
     assert n["rudder_lag_s"] == pytest.approx(0.2, abs=0.06)
     # the stated uncertainty covers the error
     assert abs(n["k_prime"] - 1.1) < 3 * n["k_prime_sd"] + 0.01
+
+
+def test_nomoto_not_biased_by_the_pilots_answer_to_wave_yaw():
+    """Wave yaw on the heading that the pilot answers with rudder over the course steps."""
+    tr = _synthetic(tp=0.45, lag=0.0, wave_deg=2.0, wave_gain=2.0, noise_deg=0.1)
+    u = F.water_speed(tr, F.fit_current(tr))
+    n = F.fit_nomoto(tr, u, 5.0, gnss_latency_s=0.0)
+    assert n["t_prime"] == pytest.approx(0.45, rel=0.10)
+    assert n["k_prime"] == pytest.approx(1.1, rel=0.05)
+
+
+def test_dead_time_stands_for_an_unknown_latency():
+    """A GNSS latency 0.1 s longer than assumed is a dead time, not a change of T'."""
+    tr = _synthetic(tp=0.45, lag=0.0, noise_deg=0.1)
+    u = F.water_speed(tr, F.fit_current(tr))
+    n = F.fit_nomoto(tr, u, 5.0, gnss_latency_s=-0.1)
+    assert n["t_prime"] == pytest.approx(0.45, rel=0.08)
+    assert n["dead_time_s"] == pytest.approx(0.1, abs=0.05)
 
 
 def test_current_and_speed_map():
