@@ -756,33 +756,63 @@ def phase_margin_deg(gain, tc, delay):
     return 90.0 - math.degrees(math.atan(tc * w)) - math.degrees(delay * w), w
 
 
-def derive_guidance(nomoto, circle, steps, speed_map, margin_deg=50.0):
+ZETA_MIN = 0.7  # damping ratio of the xte loop at the slowest fitted speed's response
+LEAD_GAIN = 0.5  # T_d / T_la: the lead's heading-feedback gain (docs/NAVIGATION.md: <= 0.5)
+
+
+def xte_damping(t_la_s, t_d_s, tau_s):
+    """Damping ratio of the LOS xte loop with the lead (docs/NAVIGATION.md "Robust over boats we
+    have not modelled"): zeta = 0.5 (1 + T_d / T_la) sqrt(T_la / tau)."""
+    return 0.5 * (1.0 + t_d_s / t_la_s) * math.sqrt(t_la_s / tau_s)
+
+
+def guidance_keys(tau_s, tau_sd_s):
+    """The closed heading response's time constant tau (key to 63 %, the slowest fitted speed)
+    with its 1-sigma uncertainty -> the `los` keys. The loop is designed on tau + 2 sigma: the
+    shortest lookahead time T_la with zeta >= ZETA_MIN there at a lead T_d = LEAD_GAIN T_la.
+    Returns (guidance keys, margins). The one place that maps the fit to the law's settings."""
+    sd = tau_sd_s if (tau_sd_s is not None and math.isfinite(tau_sd_s)) else 0.3 * tau_s
+    tau_design = tau_s + 2.0 * sd
+    t_la = tau_design * (ZETA_MIN / (0.5 * (1.0 + LEAD_GAIN))) ** 2
+    t_d = LEAD_GAIN * t_la
+    heading_tc = round(min(10.0, max(0.2, tau_s)), 2)
+    gain = round(min(10.0, max(0.5, t_la / heading_tc)), 2)
+    t_la = gain * heading_tc  # as the firmware will compute it
+    keys = {"los_heading_tc_s": heading_tc, "los_lookahead_gain": gain, "los_xte_lead_s": round(t_d, 2)}
+    margins = {"tau_s": tau_s, "tau_sd_s": sd, "tau_design_s": tau_design, "t_la_s": t_la,
+               "t_d_s": round(t_d, 2), "lead_gain": round(t_d, 2) / t_la,
+               "zeta_at_tau": xte_damping(t_la, round(t_d, 2), tau_s),
+               "zeta_at_design": xte_damping(t_la, round(t_d, 2), tau_design),
+               # the slowest tau that still keeps zeta >= 0.5 (the loop's "still usable")
+               "tau_for_zeta_0p5_s": t_la * (0.5 * (1.0 + round(t_d, 2) / t_la) / 0.5) ** 2}
+    return keys, margins
+
+
+def derive_guidance(nomoto, circle, steps, speed_map):
     """Settings for the firmware's configuration from the fits. Returns (config partial, notes)."""
-    # the response at the higher RPM: tracks are sailed at cruising speed, and the law scales the
-    # lookahead with speed (lookahead = gain * U * heading_tc_s) for the slower ones
+    # the response at the lowest RPM: the slowest, where the xte loop is least damped (the law
+    # scales the lookahead with speed, lookahead = gain * U * heading_tc_s)
     rpms = sorted(steps["by_rpm"])
-    worst = rpms[-1]
-    s = steps["by_rpm"][worst]
-    delay = max(0.0, s["delay_s"]) if math.isfinite(s["delay_s"]) else 0.5
-    tc = max(0.2, s["tc_s"]) if math.isfinite(s["tc_s"]) else 2.0
-    g = 0.5
-    while g < 10.0 and phase_margin_deg(g, tc, delay)[0] < margin_deg:
-        g = round(g + 0.1, 2)
-    pm, wc = phase_margin_deg(g, tc, delay)
+    slow = rpms[0]
+    s = steps["by_rpm"][slow]
+    tau = s["t63_s"] if math.isfinite(s["t63_s"]) else 4.0
+    keys, notes = guidance_keys(max(0.2, tau), s.get("t63_s_sd"))
+    pm, wc = phase_margin_deg(keys["los_lookahead_gain"], max(0.2, s["tc_s"] if math.isfinite(s["tc_s"]) else tau),
+                              max(0.0, s["delay_s"]) if math.isfinite(s["delay_s"]) else 0.5)
     R = circle["radius_m"] + 2.0 * (circle["radius_sd_m"] if math.isfinite(circle["radius_sd_m"]) else 0.5)
     R = round(min(100.0, max(2.0, R)), 1)
-    heading_tc = round(min(10.0, max(0.2, delay + tc)), 2)
+    guidance = {"law": "los"}
+    guidance.update(keys)
     cfg = {
-        "boat": {"min_turn_radius_m": R},
-        "guidance": {"law": "los", "los_heading_tc_s": heading_tc,  # boat.min_turn_radius_m sets the law's radius
-                     "los_lookahead_gain": g},
+        "boat": {"min_turn_radius_m": R},  # boat.min_turn_radius_m sets the law's corner radius
+        "guidance": guidance,
         "motor": {"rpm_per_mps": round(max(1.0, speed_map["rpm_per_mps"]), 1),
                   "rpm_offset": round(speed_map["rpm_offset"], 1)},
     }
     # los_speed_tc_s stays as configured: the RPM change comes with the turn back, whose speed
     # loss in the turn the simple fit would take for surge lag (reported, not used)
-    notes = {"phase_margin_deg": pm, "crossover_rad_s": wc, "margin_target_deg": margin_deg,
-             "heading_tc_s": tc, "heading_delay_s": delay, "at_rpm": worst}
+    notes.update({"phase_margin_no_lead_deg": pm, "crossover_rad_s": wc, "at_rpm": slow,
+                  "heading_delay_s": s["delay_s"], "zeta_min": ZETA_MIN, "lead_gain_max": LEAD_GAIN})
     return cfg, notes
 
 
@@ -851,7 +881,7 @@ def warnings(fit):
     return out
 
 
-def fit_all(d, length_m=5.0, gnss_latency_s=0.075, margin_deg=50.0):
+def fit_all(d, length_m=5.0, gnss_latency_s=0.075):
     """Every fit of a decoded log's last complete trial, the derived configuration and the list of
     fits too uncertain to use. TuneError when a manoeuvre is missing."""
     tr = trial_from_decoded(d)
@@ -869,6 +899,6 @@ def fit_all(d, length_m=5.0, gnss_latency_s=0.075, margin_deg=50.0):
            "steps": steps, "zigzag": zz, "_trial": tr, "_u": u}
     fit["problems"] = uncertainty_problems(fit)
     fit["warnings"] = warnings(fit)
-    fit["config"], fit["margins"] = derive_guidance(nom, circ, steps, sm, margin_deg)
+    fit["config"], fit["margins"] = derive_guidance(nom, circ, steps, sm)
     fit["sim_params"] = sim_params(nom, comp, sm)
     return fit
