@@ -157,7 +157,8 @@ def resail(logs, out, law=None, config=None, sets=(), boat_fit=None, seed=1):
             fw = json.loads(Path(config).read_text())
         except (OSError, ValueError) as e:
             raise UserError("--config %s: %s" % (config, e))
-    P.merge(fw, P.parse_set(sets or ()))
+    for sec, body in P.parse_set(sets or ()).items():  # checked by replay_cmd._check_sets
+        fw.setdefault(sec, {}).update(body)
     if law:
         fw.setdefault("guidance", {})["law"] = law
     run = SimRun(track, out / "resail", seed=seed, law=fw.get("guidance", {}).get("law", "los"), params=p,
@@ -258,6 +259,13 @@ def cmd(args, logs):
         auto_records(logdecode.decode_files(logs))
     except logdecode.LogError as e:
         raise UserError(str(e))
+    if args.boat:
+        from trackpilot_tools.sim_cmd import boat_overrides
+
+        try:
+            boat_overrides(args.boat)
+        except ValueError as e:
+            raise UserError(str(e))
     final = Path(args.out or "replay_closed_out")
     with fresh_output(final) as out:
         res = resail(logs, out, args.law, args.config, args.set or (), args.boat)
