@@ -154,3 +154,38 @@ def test_phase_margin_and_derived_lookahead():
     assert pm == pytest.approx(90 - math.degrees(math.atan(x)), abs=0.1)
     pm_d, _ = F.phase_margin_deg(2.0, 1.0, 0.5)
     assert pm_d < pm
+
+
+def test_guidance_keys_meet_the_damping_goal_with_margin():
+    keys, m = F.guidance_keys(4.0, 0.5)
+    t_la = keys["los_lookahead_gain"] * keys["los_heading_tc_s"]
+    t_d = keys["los_xte_lead_s"]
+    assert keys["los_heading_tc_s"] == pytest.approx(4.0)
+    assert t_d / t_la <= F.LEAD_GAIN + 0.01  # the lead's heading-feedback gain
+    # zeta >= 0.7 at tau + 2 sigma (the design point), more at the measured tau
+    assert F.xte_damping(t_la, t_d, 5.0) >= 0.7 - 0.01
+    assert m["zeta_at_design"] == pytest.approx(F.xte_damping(t_la, t_d, 5.0))
+    assert m["zeta_at_tau"] > m["zeta_at_design"]
+    # the linear analysis of docs/NAVIGATION.md: zeta = 0.5 (1 + T_d / T_la) sqrt(T_la / tau)
+    assert F.xte_damping(6.0, 3.0, 6.0) == pytest.approx(0.75)
+    # a slower or less certain response gets a longer lookahead time
+    k2, _ = F.guidance_keys(4.0, 1.5)
+    assert k2["los_lookahead_gain"] * k2["los_heading_tc_s"] > t_la
+    # an unknown uncertainty is not taken as none
+    k3, m3 = F.guidance_keys(4.0, float("nan"))
+    assert m3["tau_design_s"] > 4.0
+
+
+def test_sweep_recommends_tuned_only_when_no_worse():
+    from trackpilot_tools import tune_sweep as S
+
+    def summ(med, p90, osc, fail):
+        return {"runs": 4, "settled_rms_m": {"median": med, "p90": p90, "worst": p90, "worst_boat": 1},
+                "max_m": None, "oscillating": osc, "failures": fail}
+
+    assert S.recommend({"tuned": summ(0.3, 0.5, 0, 0), "default": summ(0.3, 0.6, 0, 0)})[0] == "tuned"
+    name, why = S.recommend({"tuned": summ(0.3, 0.7, 0, 0), "default": summ(0.3, 0.6, 0, 0)})
+    assert name == "default" and "p90" in why
+    assert S.recommend({"tuned": summ(0.2, 0.4, 1, 0), "default": summ(0.3, 0.6, 0, 0)})[0] == "default"
+    assert S.recommend({"tuned": summ(0.2, 0.4, 0, 1), "default": summ(0.3, 0.6, 0, 0)})[0] == "default"
+    assert "| tuned | 4 |" in S.table_md({"tuned": summ(0.3, 0.5, 0, 0)})
