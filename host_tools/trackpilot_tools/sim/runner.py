@@ -72,7 +72,7 @@ class SimRun:
             self.udp_out = (sock, udp_out[1], udp_out[2])
             self.udp_host = udp_out[0]
         self.fw_script = Path(fw_script) if fw_script else SIM_MAIN
-        self.out = Path(out_dir)
+        self.out = Path(out_dir).absolute()  # the firmware runs with ROOT as its working directory
         self.seed = seed
         self.law = law
         self.scenario = scenario
