@@ -2,7 +2,6 @@
 gives close figures with the same law on the same boat, different ones with another law, and a
 plain error for a log without AUTO or without a track."""
 import json
-from pathlib import Path
 
 import pytest
 
