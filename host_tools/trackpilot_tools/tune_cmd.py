@@ -75,7 +75,7 @@ def run(args):
     err = _config_errors(fit["config"])
     if err:
         raise UserError("the derived configuration does not validate: %s" % "; ".join(err))
-    fit["recommended"] = ("tuned", "not checked: no --sweep (the report says how)")
+    fit["recommended"] = ("tuned", "NOT checked against the defaults: run tune with --sweep N")
     if args.sweep:
         from trackpilot_tools import tune_sweep as S
 
