@@ -92,6 +92,8 @@ def trial_from_decoded(d):
         "rudder": np.array([r.rudder_deg for r in recs]),
         "rpm_set": np.array([r.rpm_set for r in recs]),
         "rpm": np.array([r.rpm for r in recs]),
+        "wind_angle": np.array([r.wind_angle_deg for r in recs]),
+        "wind_speed": np.array([r.wind_speed_mps for r in recs]),
     }
     if not a["heading_ok"].all():
         a["heading_ok"] &= True  # kept: the fits use only valid samples
@@ -421,7 +423,18 @@ class _Windows:
         self.delta = self.delta_shifted(0.0)
         self.u = np.maximum(np.interp(tg, a["t"], u), 0.3)
         hg = np.interp(tg, a["t"] - gnss_latency_s, a["heading"]) * D2R
-        self.sinh, self.cosh = np.sin(hg), np.cos(hg)  # the wind's yaw moment turns with the heading
+        # the wind's yaw moment: from the wind sensor's apparent wind (dynamic pressure x the sine of
+        # its angle, gusts included) when the log has it, else a constant wind's, turning with the
+        # heading (A sin h + B cos h)
+        if "wind_speed" in a and np.mean(a["wind_speed"] > 0.3) > 0.5:
+            ws = np.interp(tg, a["t"], a["wind_speed"])
+            wa = np.interp(tg, a["t"], np.unwrap(a["wind_angle"] * D2R))
+            self.wind_cols = [ws * ws * np.sin(wa)]
+            self.wind_source = "sensor"
+        else:
+            self.wind_cols = [np.sin(hg), np.cos(hg)]
+            self.wind_source = "heading"
+        self.n_wind = len(self.wind_cols)
         pos = (tm - t0[:, None]) / dt
         self.i0 = np.clip(np.floor(pos).astype(int), 0, self.n - 2)
         self.w = pos - self.i0
@@ -449,7 +462,7 @@ class _Windows:
         T = tp * L / self.u
         aT = np.exp(-dt / T)
         ad = math.exp(-dt / lag) if lag > 1e-4 else 0.0
-        nr = 5 if self.wind_terms else 3
+        nr = 3 + self.n_wind if self.wind_terms else 3
         out = np.zeros((nr, W, N))
         r = np.zeros((nr, W))
         r[1] = 1.0
@@ -460,7 +473,7 @@ class _Windows:
             de_next = delta[:, k + 1] + (de - delta[:, k + 1]) * ad
             # the rudder's mean over the step (a step-start value would lag by dt / 2)
             if self.wind_terms:
-                rss = np.stack([K[:, k] * 0.5 * (de + de_next), zero, one, self.sinh[:, k], self.cosh[:, k]])
+                rss = np.stack([K[:, k] * 0.5 * (de + de_next), zero, one] + [c[:, k] for c in self.wind_cols])
             else:
                 rss = np.stack([K[:, k] * 0.5 * (de + de_next), zero, one])
             a_ = aT[:, k]
@@ -485,14 +498,15 @@ class _Windows:
             # per window: start heading, start yaw rate, yaw bias; shared: the wind's yaw moment
             # A sin h + B cos h (constant wind: it turns with the heading, in circles too)
             W, M = self.W, samp.shape[2]
-            A = np.zeros((W * M, 3 * W + 2))
+            nw = self.n_wind
+            A = np.zeros((W * M, 3 * W + nw))
             for wi in range(W):
                 sl = slice(wi * M, (wi + 1) * M)
                 A[sl, 3 * wi] = 1.0
                 A[sl, 3 * wi + 1] = samp[1, wi]
                 A[sl, 3 * wi + 2] = samp[2, wi]
-                A[sl, 3 * W] = samp[3, wi]
-                A[sl, 3 * W + 1] = samp[4, wi]
+                for j in range(nw):
+                    A[sl, 3 * W + j] = samp[3 + j, wi]
             y = (psi - samp[0]).ravel()
             x, *_ = np.linalg.lstsq(A, y, rcond=None)
             e = y - A @ x
@@ -593,7 +607,7 @@ def fit_nomoto(trial, u, L=5.0, gnss_latency_s=0.075, n_meas=100, shared_bias=Fa
             break
     J = np.column_stack([(f(x + np.eye(3)[i] * steps[i]) - r) / steps[i] for i in range(3)])
     n = len(r)
-    sigma2 = cost / max(1, n - 3 - (3 * win.W + 2 if wind_terms else 2 * win.W + 1 if shared_bias else 3 * win.W))
+    sigma2 = cost / max(1, n - 3 - (3 * win.W + win.n_wind if wind_terms else 2 * win.W + 1 if shared_bias else 3 * win.W))
     infl = _corr_inflation(r)
     try:
         cov = np.linalg.inv(J.T @ J) * sigma2 * infl
@@ -608,6 +622,7 @@ def fit_nomoto(trial, u, L=5.0, gnss_latency_s=0.075, n_meas=100, shared_bias=Fa
     out = {"k_prime": kp, "k_prime_sd": kp * math.sqrt(max(cov[0, 0], 0.0)),
            "t_prime": tp, "t_prime_sd": tp * math.sqrt(max(cov[1, 1], 0.0)),
            "model": model, "rms_deg": math.sqrt(cost / n), "windows": win.W, "length_m": L,
+           "wind_model": win.wind_source,
            "_plot": (win, fits)}
     if dead:
         # the simulator's boat takes it as its flow lag (same delay to first order)

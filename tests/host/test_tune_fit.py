@@ -10,11 +10,14 @@ D2R = math.pi / 180.0
 
 
 def _synthetic(kp=1.1, tp=0.45, lag=0.2, comp_lag=0.6, comp_off=3.0, L=5.0, cur=(0.15, -0.1),
-               noise_deg=0.3, seed=0, rudder_available=True, wave_deg=0.0, wave_gain=0.0):
+               noise_deg=0.3, seed=0, rudder_available=True, wave_deg=0.0, wave_gain=0.0,
+               wind_mps=0.0, yaw_coeff=0.02):
     """A boat obeying the Nomoto model exactly: steps, a zig-zag and two circles of rudder; the
     pilot's compass a lagged true heading read at 2 Hz; GNSS at 5 Hz. `wave_deg`: wave yaw of that
     amplitude (3.3 s period) on the hull's heading, which the pilot answers over the course steps
-    with `wave_gain` deg of rudder per deg of the wave yaw it saw 0.5 s earlier (its closed loop)."""
+    with `wave_gain` deg of rudder per deg of the wave yaw it saw 0.5 s earlier (its closed loop).
+    `wind_mps`: a gusty wind from the north (+-25 %, 6 s) whose yaw rate -yaw_coeff Va^2 sin(angle)
+    the wind sensor reports (apparent = true wind here: the boat's own speed left out)."""
     rng = np.random.default_rng(seed)
     dt = 0.01
     t = np.arange(0.0, 330.0, dt)
@@ -38,11 +41,21 @@ def _synthetic(kp=1.1, tp=0.45, lag=0.2, comp_lag=0.6, comp_off=3.0, L=5.0, cur=
     u = np.where(t < 80, 1.5, 2.5)
     de = r = psi = 0.0
     psis = np.zeros_like(t)
+    gust = np.zeros_like(t)
+    g = 0.0
+    rng_gust = np.random.default_rng(seed + 1000)
+    for k in range(len(t)):
+        g += -g * dt / 6.0 + 0.25 * math.sqrt(2 * dt / 6.0) * rng_gust.normal()
+        gust[k] = g
+    ws = wind_mps * np.maximum(0.0, 1.0 + gust)
+    wa = np.zeros_like(t)
     for k in range(len(t)):
         psis[k] = psi
+        wa[k] = (0.0 - psi) % 360.0  # from the north, relative to the bow
         K, T = kp * u[k] / L, tp * L / u[k]
         de += (ram[k] - de) * (dt / lag if lag > 0 else 1.0)
-        r += (K * de - r) * dt / T
+        r_wind = -yaw_coeff * ws[k] ** 2 * math.sin(wa[k] * D2R)
+        r += (K * de + r_wind - r) * dt / T
         psi += r * dt
     comp = np.zeros_like(t)
     c = psis[0]
@@ -69,6 +82,8 @@ def _synthetic(kp=1.1, tp=0.45, lag=0.2, comp_lag=0.6, comp_off=3.0, L=5.0, cur=
         "rudder": np.round(ram[ir]) if rudder_available else np.zeros(len(ig)),
         "rpm_set": np.where(tg < 80, 600, 1000),
         "rpm": np.where(tg < 80, 600, 1000),
+        "wind_speed": ws[ig],
+        "wind_angle": wa[ig],
     }
     segs = [("straight", 2.0, 10.0, {}), ("speed", 78.0, 85.0, {})]
     segs.append(("speed", 0.0, 2.0, {}))
@@ -100,6 +115,22 @@ def test_nomoto_not_biased_by_the_pilots_answer_to_wave_yaw():
     n = F.fit_nomoto(tr, u, 5.0, gnss_latency_s=0.0)
     assert n["t_prime"] == pytest.approx(0.45, rel=0.10)
     assert n["k_prime"] == pytest.approx(1.1, rel=0.05)
+
+
+def test_gusty_wind_from_the_wind_sensor():
+    """Gusts put a yaw rate into the response that a constant wind's A sin h + B cos h cannot
+    follow; the wind sensor's apparent wind (Va^2 sin angle) can."""
+    tr = _synthetic(tp=0.45, lag=0.0, noise_deg=0.1, wind_mps=6.0, seed=2)
+    u = F.water_speed(tr, F.fit_current(tr))
+    n = F.fit_nomoto(tr, u, 5.0, gnss_latency_s=0.0)
+    assert n["wind_model"] == "sensor"
+    assert n["t_prime"] == pytest.approx(0.45, rel=0.08)
+    assert n["k_prime"] == pytest.approx(1.1, rel=0.05)
+    blind = dict(tr, a={k: v for k, v in tr["a"].items() if k not in ("wind_speed", "wind_angle")})
+    nb = F.fit_nomoto(blind, u, 5.0, gnss_latency_s=0.0)
+    assert nb["wind_model"] == "heading"
+    assert nb["rms_deg"] > 1.5 * n["rms_deg"]
+    assert abs(nb["t_prime"] / 0.45 - 1) > abs(n["t_prime"] / 0.45 - 1)  # measured: -17 % vs -1 %
 
 
 def test_dead_time_stands_for_an_unknown_latency():
