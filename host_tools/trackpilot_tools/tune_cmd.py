@@ -138,12 +138,21 @@ def report_text(fit, plots, args):
         L.append("**TOO UNCERTAIN (written with --force):** " + "; ".join(fit["problems"]) + "\n")
     for w in fit.get("warnings", ()):
         L.append("Note: %s.\n" % w)
-        L.append("## Boat (Nomoto, L = %.1f m)\n" % n["length_m"])
+    L.append("## Boat (Nomoto, L = %.1f m)\n" % n["length_m"])
     L.append("| quantity | value |\n|---|---|")
     L.append("| K' | %s |" % _pm(n["k_prime"], n["k_prime_sd"]))
     L.append("| T' | %s |" % _pm(n["t_prime"], n["t_prime_sd"]))
-    L.append("| rudder flow lag | %s s |" % _pm(n["rudder_lag_s"], n["rudder_lag_sd_s"], "%.2f"))
-    L.append("| heading fit RMS | %.2f deg over %d windows of 20 s |" % (n["rms_deg"], n["windows"]))
+    if "dead_time_s" in n:
+        L.append("| dead time, rudder report -> heading (the flow lag, the GNSS latency's error and the "
+                 "report timing together: the flow lag itself is not identified) | %s s |" % _pm(
+                     n["dead_time_s"], n["dead_time_sd_s"], "%.2f"))
+    else:
+        L.append("| rudder flow lag | %s s |" % _pm(n["rudder_lag_s"], n["rudder_lag_sd_s"], "%.2f"))
+    L.append("| wind's yaw moment modelled from | %s |" % (
+        "the wind sensor's apparent wind" if n.get("wind_model") == "sensor"
+        else "the heading (a constant wind: no wind sensor in the log)"))
+    L.append("| heading fit RMS | %.2f deg over %d windows of 20 s (zig-zag and circles) |" % (
+        n["rms_deg"], n["windows"]))
     L.append("| turning radius (circles, %.0f deg rudder) | %s m |" % (ci["rudder_deg"], _pm(ci["radius_m"], ci["radius_sd_m"], "%.2f")))
     L.append("| ... from K' at that rudder (check) | %.2f m |" % ci["radius_from_k_prime_m"])
     L.append("| current seen | %.2f m/s towards %.0f deg (+- %.2f) |" % (cur["speed_mps"], cur["to_deg"], cur["sd_mps"]))
