@@ -57,10 +57,10 @@ def sim_params(case, boat_seed, base=None):
     from .sim import params as P
     from .sim import scenarios
 
-    p = P.load() if base is None else json.loads(json.dumps(base))
+    p = P.load() if base is None else json.loads(json.dumps(base))  # a copy: the case adds to it
     flat = {}
     if base is not None:
-        pass
+        pass  # drawn by the caller
     elif boat_seed == 0:  # the nominal point as `trackpilot bench` sails it: calm, 0.2 m/s cross current
         P.merge(p, scenarios.PRESETS["calm"])
         P.merge(p, {"water": {"current_mps": 0.2, "current_dir_deg": 90.0}})
