@@ -51,14 +51,17 @@ def _write_track(case, path):
     return fn(path, *args)
 
 
-def sim_params(case, boat_seed):
-    """(parameter dict, flat drawn values) for a case on boat `boat_seed` (0 = nominal)."""
+def sim_params(case, boat_seed, base=None):
+    """(parameter dict, flat drawn values) for a case on boat `boat_seed` (0 = nominal); `base`: a
+    full parameter dict given by the caller instead (tune's sweep around a fitted boat)."""
     from .sim import params as P
     from .sim import scenarios
 
-    p = P.load()
+    p = P.load() if base is None else json.loads(json.dumps(base))  # a copy: the case adds to it
     flat = {}
-    if boat_seed == 0:  # the nominal point as `trackpilot bench` sails it: calm, 0.2 m/s cross current
+    if base is not None:
+        pass  # drawn by the caller
+    elif boat_seed == 0:  # the nominal point as `trackpilot bench` sails it: calm, 0.2 m/s cross current
         P.merge(p, scenarios.PRESETS["calm"])
         P.merge(p, {"water": {"current_mps": 0.2, "current_dir_deg": 90.0}})
     else:
@@ -75,6 +78,8 @@ NOMINAL_SEEDS = 3  # the nominal boat's noise seeds (its reference figures are t
 
 def job_name(job):
     extra = "_s%d" % job["seed"] if job.get("seed", 1) != 1 else ""
+    if job.get("config"):  # tune's sweep: the same boat with two configurations
+        extra += "_" + job["config"]
     return "%s_%s_b%d%s" % (job["case"], job["law"], job["boat"], extra)
 
 
@@ -210,7 +215,8 @@ def run_job(job):
     try:
         base.mkdir(parents=True, exist_ok=True)
         track = _write_track(case, str(base / "track.csv"))
-        p, flat = sim_params(case, job["boat"])
+        p, flat = sim_params(case, job["boat"], job.get("params"))
+        flat = job.get("flat", flat)
         r = SimRun(track, base / "run", seed=job["boat"] if job["boat"] else job.get("seed", 1), law=job["law"], params=p,
                    faults=faults, fw_config=job.get("fw"))
         dog = bench_perf.watchdog(r, job.get("timeout", 300.0))

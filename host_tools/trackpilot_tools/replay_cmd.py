@@ -1,5 +1,8 @@
 """`trackpilot replay LOG...`: rerun a log's inputs through the firmware's navigation and guidance.
 
+With `--closed-loop` (replay_closed.py): re-sail the logged run in the simulator with law or
+configuration B on the identified boat, and compare both runs' xte and keystrokes.
+
 With `--journal` (a simulator run with `trackpilot sim --journal`): every input of the decision
 core goes through a fresh core, and every control record, core event, SeaTalk bus action and
 motor frame is checked (firmware/tools/replay_core.py).
@@ -150,6 +153,13 @@ def cmd_replay(args):
     for p in logs:
         if not p.is_file():
             raise UserError("no such log: %s" % p)
+    if args.closed_loop:
+        from trackpilot_tools import replay_closed
+
+        _check_sets(args.config, args.set)
+        return replay_closed.cmd(args, logs)
+    if args.boat or args.out:
+        raise UserError("--boat and --out belong to --closed-loop")
     if args.journal:
         return cmd_core_replay(args, logs)
     _check_sets(args.config, args.set)
@@ -227,4 +237,11 @@ def add_parser(p):
                    help="exit 1 unless every command is reproduced exactly")
     p.add_argument("--journal", help="a simulator journal (trackpilot sim --journal): replay the whole decision "
                    "core and check every record, event, keystroke and RPM setpoint (exit 1 on a difference)")
+    p.add_argument("--closed-loop", action="store_true",
+                   help="re-sail the log's track in the simulator from the logged AUTO start state and current "
+                        "with --law/--config/--set, and compare with the logged run (xte, keystrokes, plot)")
+    p.add_argument("--boat", metavar="FIT.json", help="--closed-loop: the boat `trackpilot tune` identified "
+                   "(default: the simulator's nominal boat)")
+    p.add_argument("--out", help="--closed-loop: output folder (default replay_closed_out)")
+    p.add_argument("--no-plot", action="store_true", help="--closed-loop: no PNG")
     p.set_defaults(func=cmd_replay)

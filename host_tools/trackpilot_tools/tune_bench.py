@@ -89,6 +89,12 @@ def table(rows):
             key, med * k, unit, p90 * k, unit, e[-1] * k, unit, goal * k, unit, within, len(e)))
     dur = [r["trial_s"] for r in ok]
     lines.append("trial duration: %.0f-%.0f s" % (min(dur), max(dur)))
+    # is the stated uncertainty honest: |error| <= 2 sigma; and what tune accepts
+    cov = sum(1 for r in ok if abs(r["fit"]["t_prime"] - r["truth"]["t_prime"]) <= 2 * r["sd"]["t_prime"])
+    acc = [r for r in ok if not r.get("refusals")]
+    good = sum(1 for r in acc if abs(r["fit"]["t_prime"] / r["truth"]["t_prime"] - 1) <= 0.15)
+    lines.append("T' within 2 sigma of its stated uncertainty: %d/%d; tune accepted %d, T' within 15 %% "
+                 "on %d of them" % (cov, len(ok), len(acc), good))
     return "\n".join(lines)
 
 

@@ -3,7 +3,10 @@ log and write a tuned configuration with its margins (docs/COMMISSIONING.md).
 
 Output folder (fresh, whole or marked partial):
     fit.json     every fitted value with its 1-sigma uncertainty; `sim_params` for `sim --boat`
-    config.json  the firmware settings derived from the fit (install: `trackpilot upload --config`)
+    config.json  the recommended firmware settings (install: `trackpilot upload --config`): the
+                 tuned guidance, or with --sweep only where it is no worse than the defaults
+    config_tuned.json  the settings derived from the fit, always
+    sweep.json   with --sweep N: the robustness sweep around the fitted boat (tune_sweep.py)
     report.md    the fits, the margins, what to repeat if anything was too uncertain
     *.png        each fit against the data
 """
@@ -21,8 +24,12 @@ def add_parser(p):
     p.add_argument("--length-m", type=float, default=5.0, help="the boat's length for K', T' (default 5.0)")
     p.add_argument("--gnss-latency-ms", type=float, default=75.0,
                    help="GNSS output latency, heading epoch to log record (default 75 ms, ZED-F9P at 5 Hz)")
-    p.add_argument("--margin-deg", type=float, default=50.0,
-                   help="phase margin the derived lookahead must keep (default 50 deg)")
+    p.add_argument("--sweep", type=int, default=0, metavar="N",
+                   help="sail N boats around the fit (within its uncertainty) with the tuned and the default "
+                        "guidance on Dask and recommend one (default 0: not checked; N = 20 takes about "
+                        "N x 2 x 30 s of CPU)")
+    p.add_argument("--jobs", type=int, default=1, help="Dask workers for --sweep (default 1)")
+    p.add_argument("--scheduler", default=None, help="a running Dask scheduler for --sweep (tcp://HOST:8786)")
     p.add_argument("--force", action="store_true",
                    help="write the configuration even when a fit is too uncertain (marked in the report)")
     p.add_argument("--no-plots", action="store_true")
@@ -52,12 +59,14 @@ def run(args):
             raise UserError("no such log file: %s" % p)
     if not args.length_m > 0:
         raise UserError("--length-m must be > 0")
+    if args.sweep < 0 or args.jobs < 1:
+        raise UserError("--sweep must be >= 0 and --jobs >= 1")
     try:
         d = logdecode.decode_files(args.logs)
     except logdecode.LogError as e:
         raise UserError(str(e))
     try:
-        fit = F.fit_all(d, args.length_m, args.gnss_latency_ms / 1000.0, args.margin_deg)
+        fit = F.fit_all(d, args.length_m, args.gnss_latency_ms / 1000.0)
     except F.TuneError as e:
         raise UserError("cannot tune from this log: %s" % e)
     if fit["problems"] and not args.force:
@@ -66,15 +75,40 @@ def run(args):
     err = _config_errors(fit["config"])
     if err:
         raise UserError("the derived configuration does not validate: %s" % "; ".join(err))
+    fit["recommended"] = ("tuned", "NOT checked against the defaults: run tune with --sweep N")
+    if args.sweep:
+        from trackpilot_tools import tune_sweep as S
+
+        configs = {"tuned": fit["config"], "default": default_config(fit["config"])}
+        print("sweep: %d boats around the fit x 2 configurations on Dask (%s)..." % (
+            args.sweep, args.scheduler or "%d local worker(s)" % args.jobs), flush=True)
+        res = S.run(fit, configs, args.sweep, workers=args.jobs, scheduler=args.scheduler)
+        fit["sweep"] = {"boats": args.sweep, "summary": S.summarise(res),
+                        "runs": [{"config": r["job"]["config"], "boat": r["job"]["boat"], "case": r["job"]["case"],
+                                  "drawn": r.get("params"), "metrics": r["metrics"]}
+                                 for rs in res.values() for r in rs]}
+        fit["recommended"] = S.recommend(fit["sweep"]["summary"])
+    chosen = fit["config"] if fit["recommended"][0] == "tuned" else default_config(fit["config"])
     with fresh_output(args.out) as out:
         (out / "fit.json").write_text(json.dumps(_clean(fit), indent=1))
-        (out / "config.json").write_text(json.dumps(fit["config"], indent=2))
+        (out / "config.json").write_text(json.dumps(chosen, indent=2))
+        (out / "config_tuned.json").write_text(json.dumps(fit["config"], indent=2))
+        if "sweep" in fit:
+            (out / "sweep.json").write_text(json.dumps(_clean(fit["sweep"]), indent=1))
         plots = [] if args.no_plots else plot_fits(fit, out)
         (out / "report.md").write_text(report_text(fit, plots, args))
     out = Path(args.out)
     print((out / "report.md").read_text())
     print("output folder: %s (fit.json, config.json, report.md%s)" % (out, ", plots" if plots else ""))
     return 0
+
+
+def default_config(tuned):
+    """The tuned configuration without its guidance keys: the measured boat (turning radius, RPM
+    map) with the law's defaults, the other side of the sweep's comparison."""
+    out = {k: dict(v) for k, v in tuned.items() if k != "guidance"}
+    out["guidance"] = {"law": tuned.get("guidance", {}).get("law", "los")}
+    return out
 
 
 def _config_errors(partial):
@@ -104,12 +138,21 @@ def report_text(fit, plots, args):
         L.append("**TOO UNCERTAIN (written with --force):** " + "; ".join(fit["problems"]) + "\n")
     for w in fit.get("warnings", ()):
         L.append("Note: %s.\n" % w)
-        L.append("## Boat (Nomoto, L = %.1f m)\n" % n["length_m"])
+    L.append("## Boat (Nomoto, L = %.1f m)\n" % n["length_m"])
     L.append("| quantity | value |\n|---|---|")
     L.append("| K' | %s |" % _pm(n["k_prime"], n["k_prime_sd"]))
     L.append("| T' | %s |" % _pm(n["t_prime"], n["t_prime_sd"]))
-    L.append("| rudder flow lag | %s s |" % _pm(n["rudder_lag_s"], n["rudder_lag_sd_s"], "%.2f"))
-    L.append("| heading fit RMS | %.2f deg over %d windows of 20 s |" % (n["rms_deg"], n["windows"]))
+    if "dead_time_s" in n:
+        L.append("| dead time, rudder report -> heading (the flow lag, the GNSS latency's error and the "
+                 "report timing together: the flow lag itself is not identified) | %s s |" % _pm(
+                     n["dead_time_s"], n["dead_time_sd_s"], "%.2f"))
+    else:
+        L.append("| rudder flow lag | %s s |" % _pm(n["rudder_lag_s"], n["rudder_lag_sd_s"], "%.2f"))
+    L.append("| wind's yaw moment modelled from | %s |" % (
+        "the wind sensor's apparent wind" if n.get("wind_model") == "sensor"
+        else "the heading (a constant wind: no wind sensor in the log)"))
+    L.append("| heading fit RMS | %.2f deg over %d windows of 20 s (zig-zag and circles) |" % (
+        n["rms_deg"], n["windows"]))
     L.append("| turning radius (circles, %.0f deg rudder) | %s m |" % (ci["rudder_deg"], _pm(ci["radius_m"], ci["radius_sd_m"], "%.2f")))
     L.append("| ... from K' at that rudder (check) | %.2f m |" % ci["radius_from_k_prime_m"])
     L.append("| current seen | %.2f m/s towards %.0f deg (+- %.2f) |" % (cur["speed_mps"], cur["to_deg"], cur["sd_mps"]))
@@ -135,16 +178,37 @@ def report_text(fit, plots, args):
         L.append("\nZig-zag at %d RPM, overshoot: %s deg (mean %.1f)." % (
             rpm, ", ".join("%.1f" % x for x in peaks), zz["mean_overshoot_deg"][rpm]))
     L.append("")
-    L.append("## Tuned configuration (config.json)\n")
+    L.append("## Tuned configuration (config_tuned.json)\n")
     L.append("```json\n%s\n```\n" % json.dumps(fit["config"], indent=2))
-    L.append("Margin: the LOS path loop with the closed heading response measured at %d RPM ("
-             "delay %.2f s, time constant %.2f s) has a phase margin of %.0f deg (target %.0f deg) "
-             "at %.2f rad/s with lookahead gain %.1f." % (
-                 mg["at_rpm"], mg["heading_delay_s"], mg["heading_tc_s"], mg["phase_margin_deg"],
-                 mg["margin_target_deg"], mg["crossover_rad_s"], fit["config"]["guidance"]["los_lookahead_gain"]))
+    L.append("Margins: the closed heading response at %d RPM (the slowest) reaches 63 %% of a course "
+             "step %.2f +- %.2f s after the key (tau). The xte loop is designed on tau + 2 sigma = "
+             "%.2f s: lookahead time T_la = los_lookahead_gain x los_heading_tc_s = %.2f s, lead "
+             "los_xte_lead_s = T_d = %.2f s (heading-feedback gain T_d / T_la = %.2f, limit %.1f). "
+             "Damping ratio zeta = 0.5 (1 + T_d / T_la) sqrt(T_la / tau): %.2f at tau, %.2f at tau + "
+             "2 sigma (goal >= %.1f); zeta stays >= 0.5 up to tau = %.1f s. Phase margin of the loop "
+             "without the lead, with the measured delay: %.0f deg." % (
+                 mg["at_rpm"], mg["tau_s"], mg["tau_sd_s"], mg["tau_design_s"], mg["t_la_s"], mg["t_d_s"],
+                 mg["lead_gain"], mg["lead_gain_max"], mg["zeta_at_tau"], mg["zeta_at_design"], mg["zeta_min"],
+                 mg["tau_for_zeta_0p5_s"], mg["phase_margin_no_lead_deg"]))
     L.append("The turning radius in the configuration is the measured one plus 2 sigma.\n")
-    L.append("Predicted accuracy: not computed here. Sail the fitted boat in the simulator with the "
-             "tuned configuration to see it: `trackpilot sim TRACK --boat fit.json --fw-config config.json`.\n")
+    L.append("## Sweep around the fitted point and recommendation\n")
+    if "sweep" in fit:
+        from trackpilot_tools import tune_sweep as S
+
+        L.append("%d boats drawn around the fit within its 1-sigma uncertainty (the pilot's own "
+                 "gains, deadband, ram, key delay, wind, waves and GNSS latency from the robust "
+                 "bench's spreads: the trial does not identify them), one straight each at 1, 2 or "
+                 "3 m/s, law `los`, truth xte:\n" % fit["sweep"]["boats"])
+        L.append(S.table_md(fit["sweep"]["summary"]) + "\n")
+    else:
+        L.append("Not run. `trackpilot tune LOG --sweep 20` sails 20 boats around the fit with the "
+                 "tuned and the default guidance (Dask, `--jobs`/`--scheduler`) and recommends one.\n")
+    L.append("**Recommended: %s** (%s). config.json holds it%s.\n" % (
+        fit["recommended"][0], fit["recommended"][1],
+        "" if fit["recommended"][0] == "tuned" else ": the measured boat's radius and RPM map with the law's default guidance"))
+    L.append("Predicted accuracy on the fitted boat: `trackpilot sim TRACK --boat fit.json "
+             "--fw-config config.json`; on a logged run: `trackpilot replay LOG --closed-loop "
+             "--boat fit.json --law los --fw-config config.json`.\n")
     L.append("Install: `trackpilot upload --config config.json` (STANDBY only; validated on the board).\n")
     if plots:
         L.append("## Plots\n")

@@ -76,3 +76,14 @@ def test_esp_idf_style_rx_timeout_batches_bus_bytes(tmp_path):
 def test_realtime_mode_paces_to_the_wall_clock(tmp_path):
     r, res = run(tmp_path, "rt", duration_s=2.0, realtime=True, realtime_speed=4.0)
     assert res["wall_s"] >= 0.45 and res["speedup"] < 4.5
+
+
+def test_relative_out_dir_reaches_the_firmware(tmp_path, monkeypatch):
+    """The firmware runs with the repository as its working directory: a relative output folder
+    must still give it its config.json and data folder (it silently ran on the defaults)."""
+    monkeypatch.chdir(tmp_path)
+    r = SimRun(TRACK, "rel", seed=1, duration_s=20, fw_config={"guidance": {"los_lookahead_gain": 4.0}})
+    r.run()
+    assert list((tmp_path / "rel" / "fw" / "log").glob("*.tpl"))
+    err = (tmp_path / "rel" / "firmware_stderr.txt").read_text()
+    assert "defaults" not in err

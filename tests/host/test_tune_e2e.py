@@ -63,6 +63,41 @@ def test_trial_tune_sim(trial_run, tmp_path, capsys):
     assert "AUTO" in text
 
 
+def test_tune_sweep_around_the_fit(trial_run, tmp_path, capsys):
+    """--sweep on a tiny N: boats drawn around the fit sail the tuned and the default guidance on
+    the robust bench's engine; config.json is the recommended one."""
+    from trackpilot_tools import tune_sweep as S
+
+    run, logs = trial_run
+    rc = _cli(["tune", *map(str, logs), "--out", str(tmp_path / "tune"), "--no-plots", "--force",
+               "--sweep", "2", "--jobs", "1"])
+    assert rc == 0, capsys.readouterr().err
+    out = tmp_path / "tune"
+    sweep = json.loads((out / "sweep.json").read_text())
+    assert set(sweep["summary"]) == {"tuned", "default"}
+    assert all(s["runs"] == 2 for s in sweep["summary"].values())
+    by = {(r["config"], r["boat"]): r for r in sweep["runs"]}
+    assert set(by) == {("tuned", 1), ("tuned", 2), ("default", 1), ("default", 2)}
+    # the same boat for both configurations, drawn around the fit
+    assert by[("tuned", 1)]["drawn"] == by[("default", 1)]["drawn"]
+    fit = json.loads((out / "fit.json").read_text())
+    name, _why = fit["recommended"]
+    cfg = json.loads((out / "config.json").read_text())
+    tuned = json.loads((out / "config_tuned.json").read_text())
+    if name == "tuned":
+        assert cfg == tuned
+    else:
+        assert cfg["guidance"] == {"law": "los"} and cfg["boat"] == tuned["boat"]
+    assert name == S.recommend(sweep["summary"])[0]
+    assert "Recommended: %s" % name in (out / "report.md").read_text()
+    # draws: within a few sigma of the fit, the unidentified pilot from the spreads
+    boats = S.draw_boats(fit, 3)
+    n = fit["nomoto"]
+    for _seed, p, _flat in boats:
+        assert abs(p["boat"]["k_prime"] - n["k_prime"]) <= 5 * n["k_prime_sd"] + 1e-9
+    assert len({p["pilot"]["kp_rudder_per_deg"] for _s, p, _f in boats}) == 3
+
+
 def test_tune_refuses_a_cut_trial(trial_run, tmp_path, capsys):
     """A log cut before the trial's end: a plain one-line refusal naming the cause, nothing written."""
     from trackpilot_tools import logdecode

@@ -10,9 +10,14 @@ D2R = math.pi / 180.0
 
 
 def _synthetic(kp=1.1, tp=0.45, lag=0.2, comp_lag=0.6, comp_off=3.0, L=5.0, cur=(0.15, -0.1),
-               noise_deg=0.3, seed=0, rudder_available=True):
+               noise_deg=0.3, seed=0, rudder_available=True, wave_deg=0.0, wave_gain=0.0,
+               wind_mps=0.0, yaw_coeff=0.02):
     """A boat obeying the Nomoto model exactly: steps, a zig-zag and two circles of rudder; the
-    pilot's compass a lagged true heading read at 2 Hz; GNSS at 5 Hz."""
+    pilot's compass a lagged true heading read at 2 Hz; GNSS at 5 Hz. `wave_deg`: wave yaw of that
+    amplitude (3.3 s period) on the hull's heading, which the pilot answers over the course steps
+    with `wave_gain` deg of rudder per deg of the wave yaw it saw 0.5 s earlier (its closed loop).
+    `wind_mps`: a gusty wind from the north (+-25 %, 6 s) whose yaw rate -yaw_coeff Va^2 sin(angle)
+    the wind sensor reports (apparent = true wind here: the boat's own speed left out)."""
     rng = np.random.default_rng(seed)
     dt = 0.01
     t = np.arange(0.0, 330.0, dt)
@@ -26,6 +31,9 @@ def _synthetic(kp=1.1, tp=0.45, lag=0.2, comp_lag=0.6, comp_off=3.0, L=5.0, cur=
         rud[(t >= t0) & (t < t0 + 6)] = 12 * (1 if i % 2 == 0 else -1)
     rud[(t >= 200) & (t < 260)] = 28
     rud[(t >= 265) & (t < 325)] = -28
+    wave = wave_deg * np.sin(2 * math.pi * t / 3.3)
+    seen = np.interp(t - 0.5, t, wave)
+    rud = rud - np.where(t < 150, wave_gain * seen, 0.0)
     # the ram moves at 10 deg/s
     ram = np.zeros_like(rud)
     for k in range(1, len(t)):
@@ -33,11 +41,21 @@ def _synthetic(kp=1.1, tp=0.45, lag=0.2, comp_lag=0.6, comp_off=3.0, L=5.0, cur=
     u = np.where(t < 80, 1.5, 2.5)
     de = r = psi = 0.0
     psis = np.zeros_like(t)
+    gust = np.zeros_like(t)
+    g = 0.0
+    rng_gust = np.random.default_rng(seed + 1000)
+    for k in range(len(t)):
+        g += -g * dt / 6.0 + 0.25 * math.sqrt(2 * dt / 6.0) * rng_gust.normal()
+        gust[k] = g
+    ws = wind_mps * np.maximum(0.0, 1.0 + gust)
+    wa = np.zeros_like(t)
     for k in range(len(t)):
         psis[k] = psi
+        wa[k] = (0.0 - psi) % 360.0  # from the north, relative to the bow
         K, T = kp * u[k] / L, tp * L / u[k]
         de += (ram[k] - de) * (dt / lag if lag > 0 else 1.0)
-        r += (K * de - r) * dt / T
+        r_wind = -yaw_coeff * ws[k] ** 2 * math.sin(wa[k] * D2R)
+        r += (K * de + r_wind - r) * dt / T
         psi += r * dt
     comp = np.zeros_like(t)
     c = psis[0]
@@ -53,7 +71,7 @@ def _synthetic(kp=1.1, tp=0.45, lag=0.2, comp_lag=0.6, comp_off=3.0, L=5.0, cur=
     ir = np.clip(np.round(read_t / dt).astype(int), 0, len(t) - 1)
     a = {
         "t": tg,
-        "heading": psis[ig] + rng.normal(0, noise_deg, len(ig)),
+        "heading": psis[ig] + wave[ig] + rng.normal(0, noise_deg, len(ig)),
         "heading_ok": np.ones(len(ig), bool),
         "vel_ok": np.ones(len(ig), bool),
         "sog": np.hypot(ve[ig], vn[ig]),
@@ -64,6 +82,8 @@ def _synthetic(kp=1.1, tp=0.45, lag=0.2, comp_lag=0.6, comp_off=3.0, L=5.0, cur=
         "rudder": np.round(ram[ir]) if rudder_available else np.zeros(len(ig)),
         "rpm_set": np.where(tg < 80, 600, 1000),
         "rpm": np.where(tg < 80, 600, 1000),
+        "wind_speed": ws[ig],
+        "wind_angle": wa[ig],
     }
     segs = [("straight", 2.0, 10.0, {}), ("speed", 78.0, 85.0, {})]
     segs.append(("speed", 0.0, 2.0, {}))
@@ -86,6 +106,40 @@ def test_nomoto_recovers_known_constants():
     assert n["rudder_lag_s"] == pytest.approx(0.2, abs=0.06)
     # the stated uncertainty covers the error
     assert abs(n["k_prime"] - 1.1) < 3 * n["k_prime_sd"] + 0.01
+
+
+def test_nomoto_not_biased_by_the_pilots_answer_to_wave_yaw():
+    """Wave yaw on the heading that the pilot answers with rudder over the course steps."""
+    tr = _synthetic(tp=0.45, lag=0.0, wave_deg=2.0, wave_gain=2.0, noise_deg=0.1)
+    u = F.water_speed(tr, F.fit_current(tr))
+    n = F.fit_nomoto(tr, u, 5.0, gnss_latency_s=0.0)
+    assert n["t_prime"] == pytest.approx(0.45, rel=0.10)
+    assert n["k_prime"] == pytest.approx(1.1, rel=0.05)
+
+
+def test_gusty_wind_from_the_wind_sensor():
+    """Gusts put a yaw rate into the response that a constant wind's A sin h + B cos h cannot
+    follow; the wind sensor's apparent wind (Va^2 sin angle) can."""
+    tr = _synthetic(tp=0.45, lag=0.0, noise_deg=0.1, wind_mps=6.0, seed=2)
+    u = F.water_speed(tr, F.fit_current(tr))
+    n = F.fit_nomoto(tr, u, 5.0, gnss_latency_s=0.0)
+    assert n["wind_model"] == "sensor"
+    assert n["t_prime"] == pytest.approx(0.45, rel=0.08)
+    assert n["k_prime"] == pytest.approx(1.1, rel=0.05)
+    blind = dict(tr, a={k: v for k, v in tr["a"].items() if k not in ("wind_speed", "wind_angle")})
+    nb = F.fit_nomoto(blind, u, 5.0, gnss_latency_s=0.0)
+    assert nb["wind_model"] == "heading"
+    assert nb["rms_deg"] > 1.5 * n["rms_deg"]
+    assert abs(nb["t_prime"] / 0.45 - 1) > abs(n["t_prime"] / 0.45 - 1)  # measured: -17 % vs -1 %
+
+
+def test_dead_time_stands_for_an_unknown_latency():
+    """A GNSS latency 0.1 s longer than assumed is a dead time, not a change of T'."""
+    tr = _synthetic(tp=0.45, lag=0.0, noise_deg=0.1)
+    u = F.water_speed(tr, F.fit_current(tr))
+    n = F.fit_nomoto(tr, u, 5.0, gnss_latency_s=-0.1)
+    assert n["t_prime"] == pytest.approx(0.45, rel=0.08)
+    assert n["dead_time_s"] == pytest.approx(0.1, abs=0.05)
 
 
 def test_current_and_speed_map():
@@ -131,3 +185,38 @@ def test_phase_margin_and_derived_lookahead():
     assert pm == pytest.approx(90 - math.degrees(math.atan(x)), abs=0.1)
     pm_d, _ = F.phase_margin_deg(2.0, 1.0, 0.5)
     assert pm_d < pm
+
+
+def test_guidance_keys_meet_the_damping_goal_with_margin():
+    keys, m = F.guidance_keys(4.0, 0.5)
+    t_la = keys["los_lookahead_gain"] * keys["los_heading_tc_s"]
+    t_d = keys["los_xte_lead_s"]
+    assert keys["los_heading_tc_s"] == pytest.approx(4.0)
+    assert t_d / t_la <= F.LEAD_GAIN + 0.01  # the lead's heading-feedback gain
+    # zeta >= 0.7 at tau + 2 sigma (the design point), more at the measured tau
+    assert F.xte_damping(t_la, t_d, 5.0) >= 0.7 - 0.01
+    assert m["zeta_at_design"] == pytest.approx(F.xte_damping(t_la, t_d, 5.0))
+    assert m["zeta_at_tau"] > m["zeta_at_design"]
+    # the linear analysis of docs/NAVIGATION.md: zeta = 0.5 (1 + T_d / T_la) sqrt(T_la / tau)
+    assert F.xte_damping(6.0, 3.0, 6.0) == pytest.approx(0.75)
+    # a slower or less certain response gets a longer lookahead time
+    k2, _ = F.guidance_keys(4.0, 1.5)
+    assert k2["los_lookahead_gain"] * k2["los_heading_tc_s"] > t_la
+    # an unknown uncertainty is not taken as none
+    k3, m3 = F.guidance_keys(4.0, float("nan"))
+    assert m3["tau_design_s"] > 4.0
+
+
+def test_sweep_recommends_tuned_only_when_no_worse():
+    from trackpilot_tools import tune_sweep as S
+
+    def summ(med, p90, osc, fail):
+        return {"runs": 4, "settled_rms_m": {"median": med, "p90": p90, "worst": p90, "worst_boat": 1},
+                "max_m": None, "oscillating": osc, "failures": fail}
+
+    assert S.recommend({"tuned": summ(0.3, 0.5, 0, 0), "default": summ(0.3, 0.6, 0, 0)})[0] == "tuned"
+    name, why = S.recommend({"tuned": summ(0.3, 0.7, 0, 0), "default": summ(0.3, 0.6, 0, 0)})
+    assert name == "default" and "p90" in why
+    assert S.recommend({"tuned": summ(0.2, 0.4, 1, 0), "default": summ(0.3, 0.6, 0, 0)})[0] == "default"
+    assert S.recommend({"tuned": summ(0.2, 0.4, 0, 1), "default": summ(0.3, 0.6, 0, 0)})[0] == "default"
+    assert "| tuned | 4 |" in S.table_md({"tuned": summ(0.3, 0.5, 0, 0)})

@@ -58,7 +58,7 @@ class SimRun:
                  params=None, param_file=None, overrides=None, duration_s=None, realtime=False,
                  realtime_speed=1.0, fw_config=None, reengage_s=0.0, quiet=True,
                  stop_after_finish_s=5.0, max_xte_stop_m=80.0, fw_script=None, udp_out=None,
-                 fw_config_bytes=None, trial=False, journal=False):
+                 fw_config_bytes=None, trial=False, journal=False, start_state=None):
         self.track_path = Path(track_path)
         self.journal = journal  # the firmware writes every input of its decision core (replay_core)
         self.udp_out = None
@@ -72,7 +72,7 @@ class SimRun:
             self.udp_out = (sock, udp_out[1], udp_out[2])
             self.udp_host = udp_out[0]
         self.fw_script = Path(fw_script) if fw_script else SIM_MAIN
-        self.out = Path(out_dir)
+        self.out = Path(out_dir).absolute()  # the firmware runs with ROOT as its working directory
         self.seed = seed
         self.law = law
         self.scenario = scenario
@@ -117,7 +117,11 @@ class SimRun:
         off = sp["start_offset_m"]
         e0 = off * math.cos(math.radians(brg0))  # + = starboard of the first leg
         n0 = -off * math.sin(math.radians(brg0))
-        self.boat = Boat(self.p["boat"], self.env, e0, n0, brg0 + sp["start_heading_err_deg"])
+        h0, u0 = brg0 + sp["start_heading_err_deg"], 0.0
+        if start_state:  # replay --closed-loop: a logged run's state {lat_deg, lon_deg, heading_deg, u_mps}
+            e0, n0 = self.frame.from_latlon(start_state["lat_deg"], start_state["lon_deg"])
+            h0, u0 = start_state["heading_deg"], start_state.get("u_mps", 0.0)
+        self.boat = Boat(self.p["boat"], self.env, e0, n0, h0, u_mps=u0)
         self.bus = SeaTalkBus(self.p["seatalk"], component_rng(seed, "seatalk"), self.sched,
                               self._fw_rx_seatalk)
         self.pilot = ST2000Sim(self.p["pilot"], component_rng(seed, "pilot"), self.sched, self.bus)

@@ -1,0 +1,41 @@
+"""The simulated pilot's closed heading response, to match it with the measured one.
+
+The trial measures the closed response of ST2000+ + boat to course steps (time to 63 %) at two
+speeds, not the ST2000+'s own settings (gain, damping, deadband, ram speed: its control law is not
+published). tune's sweep draws those from the robust bench's spreads and keeps only pilots whose
+simulated steps on the drawn boat reach 63 % within a tolerance of the measured times (tune_sweep.py).
+"""
+
+
+
+def step_metrics(params, speed_mps, step_deg=10.0, seconds=25.0, dt=0.05):
+    """The simulator's pilot on the simulator's boat, calm, no noise: (t63 s, overshoot fraction)
+    after a course step of step_deg at t = 0 (plus the pilot's key delay)."""
+    from .bench_robust import _NoBus
+    from .sim import stcodec
+    from .sim.boat import Boat, Environment
+    from .sim.randproc import component_rng
+    from .sim.st2000_sim import ST2000Sim
+
+    water = dict(params["water"], current_mps=0.0, current_walk_sd_mps=0.0, wave_yaw_rms_deg=0.0)
+    wind = dict(params["wind"], speed_mps=0.0, gust_sd_frac=0.0)
+    env = Environment(water, wind, component_rng(1, "environment"))
+    pp = dict(params["pilot"], compass_noise_deg=0.0, compass_drift_sd_deg=0.0, compass_offset_deg=0.0,
+              compass_dev_sin_deg=0.0, compass_dev_cos_deg=0.0)
+    boat = Boat(params["boat"], env, 0.0, 0.0, 0.0, u_mps=speed_mps, rpm=0.0)
+    boat.p = dict(params["boat"], surge_tau_s=1e9)  # the speed held (the trial's steps run at a steady RPM)
+    pil = ST2000Sim(pp, component_rng(1, "pilot"), None, _NoBus())
+    pil.mode = stcodec.MODE_AUTO
+    pil.course_deg = step_deg
+    delay = pp.get("key_delay_ms", 100) / 1000.0
+    t63 = None
+    peak = 0.0
+    for k in range(int(seconds / dt)):
+        rud = pil.control_step(dt, boat.heading_deg())
+        boat.step(dt, rud, 0.0)
+        boat.u_mps = speed_mps
+        h = ((boat.psi_deg + 180.0) % 360.0) - 180.0
+        peak = max(peak, h)
+        if t63 is None and h >= 0.63 * step_deg:
+            t63 = (k + 1) * dt + delay
+    return (t63 if t63 is not None else float("inf")), peak / step_deg - 1.0
