@@ -81,6 +81,16 @@ def test_long_name_refused(tmp_path, capsys):
     assert cli.main(["track", "check", str(path)]) == 0
 
 
+def test_import_cuts_long_names(tmp_path):
+    from trackpilot_tools.track_import import import_track
+
+    src = tmp_path / "points.csv"
+    src.write_text("lat,lon,name\n51.4900,3.6100,the start by the bridge\n51.4910,3.6110,end\n")
+    text, trk, _ = import_track(str(src))
+    assert trk.waypoints[0].name == "the start by the"  # 16 characters
+    assert trk.waypoints[1].name == "end"
+
+
 def test_estimate_is_the_esp32_layout_everywhere():
     """The budget limits the ESP32's figure (32-bit words, float32) on every interpreter: the
     default arguments; and it grows with each input as the layout says."""
