@@ -7,7 +7,8 @@ raises TrackError(line_no, message) and never yields a Track, so the caller keep
 one (parse into a new object, swap only on success).
 
 Compact for the ESP32's ~110 KB heap: the file is read line by line twice (first to count the
-waypoints, refusing more than MAX_WAYPOINTS before anything is allocated for them, then into
+waypoints, refusing more than MAX_WAYPOINTS, or more than TRACK_BUDGET_B of heap as
+track_heap_bytes computes it, before anything is allocated for them, then into
 integer arrays sized for them, in pages of 128 so no large block is needed): 11.0 B per waypoint
 without names or radii, 22.1 B with both and a blank line after each (measured at 2000 on the
 32-bit build; was ~550 B as Waypoint/Leg objects and boxed floats). A leg is computed from its two
