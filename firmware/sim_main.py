@@ -1,7 +1,7 @@
 """Entry point of the firmware in simulation (docs/SIM_PROTOCOL.md).
 
     micropython firmware/sim_main.py --config CFG.json --track TRACK.csv --data DIR [--seed N]
-                                     [--profile] [--heap-stages]
+                                     [--profile] [--heap-stages [--heap-every S]]
 
 Runs the same App as main.py on the ESP32; only the wiring and the clock/event-loop adapter differ.
 Diagnostics go to stderr; stdout carries the protocol.
@@ -12,7 +12,7 @@ import sys
 def _args(argv):
     opts = {"--config": None, "--track": None, "--data": "/tmp/trackpilot_sim", "--seed": "1",
             "--reset-cause": "power-on", "--tick-base": None, "--quiet": None, "--profile": None,
-            "--heap-stages": None, "--journal": None}
+            "--heap-stages": None, "--heap-every": "600", "--journal": None}
     i = 1
     while i < len(argv):
         a = argv[i]
@@ -81,15 +81,16 @@ def gc_stage(name, t_ms):
     _gc_last[2] = cpu_us
 
 
-async def _heap_watch(link, app):
-    """--heap-stages: the heap once the tasks run, then in steady state (every 10 min)."""
+async def _heap_watch(link, app, every_s):
+    """--heap-stages: the heap once the tasks run, then in steady state (every every_s, 600 s
+    unless --heap-every says)."""
     import asyncio
 
     await asyncio.sleep_ms(0)
     heap_stage("tasks started")
     gc_stage("tasks started", link.t_ms)
     while True:
-        await asyncio.sleep_ms(600000)
+        await asyncio.sleep_ms(every_s * 1000)
         gc_stage("t=%d s" % (link.t_ms // 1000), link.t_ms)
         heap_stage("t=%d s" % (link.t_ms // 1000))
 
@@ -140,7 +141,7 @@ def main():
             heap_stage("track loaded")
     if stages:
         async def _run():
-            asyncio.create_task(_heap_watch(link, app))
+            asyncio.create_task(_heap_watch(link, app, int(opts["--heap-every"])))
             await app.run()
 
         asyncio.run(_run())

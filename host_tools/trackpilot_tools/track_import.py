@@ -309,6 +309,7 @@ def to_track_csv(points, source=""):
            "lon,lat,speed_mps,name,radius_m"]
     for p in points:
         name = (p.name or "").replace(",", " ").replace("#", " ").strip()
+        name = name[: fw_track.MAX_NAME_CHARS].strip()  # the most a track takes (the display's width)
         rad = "" if p.radius_m is None else "%g" % p.radius_m
         out.append("%s,%s,%.3f,%s,%s" % (_deg_text(p.lon_e7), _deg_text(p.lat_e7), p.speed_mps,
                                          name, rad))

@@ -138,3 +138,39 @@ def test_gc_stage_lines_parsed():
     lines = bench_perf.frozen_heap_lines({"runs": [{"track": "t", "heap": 162368, "ok": True, "peak_heap_B": 1,
                                                     "gc_max_pause_us": 2, "stages": [], "gc": gc_stages}]})
     assert any("2128 per simulated minute, 169 us mean, 813 us max" in x for x in lines), lines
+
+
+BUDGET_TRACK_S = 300  # simulated seconds: the free block is steady from t = 100 s (docs/MEMORY.md)
+
+
+def test_track_at_the_budget_in_the_esp32_heap(frozen, tmp_path):
+    """The track memory budget (nav/track.py TRACK_BUDGET_B): 2000 waypoints with as many name
+    bytes as the budget takes (track_heap_bytes = the budget, to the byte) run at the ESP32's
+    110 KB with the 16 KB largest free block in steady state; the load adds what the estimate
+    says plus the app's own ~2 KB (progress, log and HMI references)."""
+    sys.path.insert(0, str(ROOT / "firmware"))
+    sys.path.insert(0, str(ROOT / "firmware" / "tools"))
+    import track_heap
+    from trackpilot.nav import track
+
+    trk = tmp_path / "budget2000.csv"
+    est = track_heap.write_budget_track(str(trk), 2000)
+    assert track.TRACK_BUDGET_B - 16 <= est <= track.TRACK_BUDGET_B, est
+    probe = _one(tmp_path, "probe", 256 * 1024, duration_s=5, track=trk)
+    started = [s for s in probe["stages"] if s["stage"] == "tasks started"]
+    assert started and started[0]["loader_B"], probe["stderr_tail"]
+    res = bench_perf.frozen_heap({"out": str(tmp_path / "esp32"), "tracks": [("t", str(trk))],
+                                  "heaps": [ESP32_HEAP_B + started[0]["loader_B"]], "duration_s": BUDGET_TRACK_S,
+                                  "timeout": 600, "heap_every_s": 100})
+    assert "error" not in res, res.get("error")
+    run = res["runs"][0]
+    assert not run["memory_error"], run["stderr_tail"]
+    assert run["stop"] == "time limit" and not run["failure"], (run["stop"], run["stderr_tail"])
+    stages = {s["stage"]: s for s in run["stages"]}
+    # without the frozen-code records of the modules the load imports (nav/track.py: flash on a board)
+    loaded, app = stages["track loaded"], stages["App()"]
+    added = (loaded["live_B"] - loaded["loader_B"]) - (app["live_B"] - app["loader_B"])
+    assert est <= added <= est + 3072, (est, added)
+    steady = [s for s in run["stages"] if s["stage"].startswith("t=")]
+    assert len(steady) >= 2, run["stages"]
+    assert min(s["largest_free_B"] for s in steady) >= STEADY_LARGEST_FREE_B, steady

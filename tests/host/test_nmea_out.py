@@ -34,10 +34,11 @@ def test_sentences_parse_and_keep_full_precision():
         assert xte.dirs == ("L" if xte_m > 0 else "R")
 
 
+# a 16-character name (the most a track takes) is still cut to 12 for NMEA
 ROUTE_TRACK = """lon,lat,speed_mps,name,radius_m
 3.6100000,51.4900000,1.0,quay start,
 3.6104319,51.4907191,2.0,,
-3.6135997,51.4937750,3.0,a_very_long_waypoint_name*x,
+3.6135997,51.4937750,3.0,a_very_long_wp*x,
 3.6186393,51.4938646,2.0,bridge,5
 """
 

@@ -88,11 +88,28 @@ def test_too_many_waypoints_refused():
         return
     app, w = _app()
     path = DIR + "/big.csv"
-    track_heap.write_track(path, track.MAX_WAYPOINTS + 1)
+    track_heap.write_named_track(path, track.MAX_WAYPOINTS + 1)  # no names: only the count is wrong
     ok, msg = app.load_track(path)
     t.true(not ok, msg)
     t.true("line 2002: more than 2000 waypoints" in msg, msg)
     t.eq(app.track, None)
+
+
+def test_over_the_budget_refused():
+    if not HAVE_ASYNCIO:
+        print("skipped: no asyncio")
+        return
+    app, w = _app()
+    good = DIR + "/good.csv"
+    track_heap.write_track(good, 40)
+    app.load_track(good)
+    first = app.track
+    path = DIR + "/heavy.csv"
+    track_heap.write_budget_track(path, track.MAX_WAYPOINTS, over=True)
+    ok, msg = app.load_track(path)
+    t.true(not ok and "shorten the names or split the track" in msg, msg)
+    t.true(("TRACK track %s rejected: line " % path) in w.lines[-1], w.lines[-1])
+    t.true(app.track is first, "the active track stays")
 
 
 def test_memory_error_is_a_refusal():

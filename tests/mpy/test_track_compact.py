@@ -41,10 +41,11 @@ def test_file_and_text_parse_alike():
 
 
 def test_waypoint_limit():
-    track_heap.write_track(PATH, track.MAX_WAYPOINTS)
+    # without names: 2000 of them fit the heap budget (with a name each they do not)
+    track_heap.write_named_track(PATH, track.MAX_WAYPOINTS)
     with open(PATH, "rb") as f:
         t.eq(len(track.parse_track_csv(f).waypoints), 2000)
-    track_heap.write_track(PATH, track.MAX_WAYPOINTS + 1)
+    track_heap.write_named_track(PATH, track.MAX_WAYPOINTS + 1)
     with open(PATH, "rb") as f:
         e = t.raises(track.TrackError, track.parse_track_csv, f)
     t.eq(e.line_no, 2002)  # the header, then the 2001st waypoint
@@ -123,3 +124,31 @@ def test_optional_arrays():
     t.eq([(w.name, w.radius_m) for w in full.waypoints], [("a", None), (None, 2.5)])
     again = track.from_waypoints(full.waypoints)
     t.eq([(w.name, w.radius_m, w.line_no) for w in again.waypoints], [("a", None, 2), (None, 2.5, 3)])
+
+
+def test_heap_estimate_matches_measured():
+    # track_heap_bytes at this interpreter's word and float size against the heap the parsed and
+    # validated track holds: never below it, above by at most 1 % or 600 B (the leg cache is
+    # counted full; validate fills it only on a track with turns)
+    cases = ((2, 0, 0, 0), (9, 4, 1, 0), (130, 3, 0, 0), (129, 16, 0, 2), (1000, 10, 1, 1), (2000, 0, 0, 0),
+             (2000, 1, 0, 0), (2000, 5, 1, 0), (2000, 0, 1, 1))
+    for n, name_chars, radii, blank_every in cases:
+        track_heap.write_named_track(PATH, n, name_chars, radii != 0, blank_every)
+        est, live = track_heap.measure_budget(PATH)
+        t.true(0 <= est - live <= max(live // 100, 600), "%r: estimated %d B, measured %d B" % (
+            (n, name_chars, radii, blank_every), est, live))
+        gc.collect()
+
+
+def test_budget_refused_at_the_crossing_line():
+    est = track_heap.write_budget_track(PATH, 2000)
+    t.true(est <= track.TRACK_BUDGET_B, est)
+    with open(PATH, "rb") as f:
+        t.eq(len(track.parse_track_csv(f).waypoints), 2000)
+    gc.collect()
+    track_heap.write_budget_track(PATH, 2000, over=True)
+    with open(PATH, "rb") as f:
+        e = t.raises(track.TrackError, track.parse_track_csv, f)
+    t.true(e.line_no > 1000, e.line_no)
+    t.true(e.message.endswith("B a track may take (tracks/README.md): shorten the names or split the track"),
+           e.message)

@@ -7,7 +7,8 @@ raises TrackError(line_no, message) and never yields a Track, so the caller keep
 one (parse into a new object, swap only on success).
 
 Compact for the ESP32's ~110 KB heap: the file is read line by line twice (first to count the
-waypoints, refusing more than MAX_WAYPOINTS before anything is allocated for them, then into
+waypoints, refusing more than MAX_WAYPOINTS, or more than TRACK_BUDGET_B of heap as
+track_heap_bytes computes it, before anything is allocated for them, then into
 integer arrays sized for them, in pages of 128 so no large block is needed): 11.0 B per waypoint
 without names or radii, 22.1 B with both and a blank line after each (measured at 2000 on the
 32-bit build; was ~550 B as Waypoint/Leg objects and boxed floats). A leg is computed from its two
@@ -50,7 +51,13 @@ class TrackError(ValueError):
         self.message = message
 
 
-MAX_WAYPOINTS = 2000  # the firmware's limit (tracks/README.md): 22-44 KB of heap
+MAX_WAYPOINTS = 2000  # the firmware's limit (tracks/README.md)
+# The heap a track may take on the ESP32 (track_heap_bytes; tracks/README.md, docs/MEMORY.md):
+# at the ESP32-equivalent heap the app kept a 16 KB largest free block in steady state up to
+# tracks of about 31-33 KB (measured), so 28 KB leaves the run-to-run spread (2-3 KB) as margin.
+# 2000 waypoints without names take 23.2 KB, with a radius on each 27.5 KB.
+TRACK_BUDGET_B = 28 * 1024
+MAX_NAME_CHARS = 16  # the display's width (hmi/tphmi/pages.py: 16 columns)
 MAX_LINE_BYTES = 512  # a longer line is not a track line (and would cost a large string)
 MAX_LINES = 65535  # line numbers are kept as 16-bit ints
 # Floats as stored: single precision on a float32 build (the ESP32), else double, so a stored
@@ -315,6 +322,70 @@ class Track:
         return s
 
 
+def _blocks_b(n_bytes, block_b):
+    """A heap allocation of n_bytes, rounded up to the GC's blocks (0 bytes: none)."""
+    return (n_bytes + block_b - 1) // block_b * block_b
+
+
+def _list_b(n_items, word_b, block_b):
+    """A list grown by append to n_items: the object and its items (4, 8, 16 ... slots)."""
+    cap = 4
+    while cap < n_items:
+        cap *= 2
+    return block_b + _blocks_b(cap * word_b, block_b)
+
+
+def _map_b(n_attrs, word_b, block_b):
+    """An instance's attribute table: the smallest of MicroPython's hash sizes that holds them."""
+    for size in (2, 4, 6, 8, 10, 12, 17, 23, 29, 37):
+        if size >= n_attrs:
+            return _blocks_b(size * 2 * word_b, block_b)
+    return _blocks_b(n_attrs * 4 * word_b, block_b)
+
+
+def _paged_b(item_b, n, word_b, block_b):
+    """A _Paged array of n items: the instance, its table and list, a page array per 128."""
+    full = n >> _PAGE_SHIFT
+    rest = n & (_PAGE - 1)
+    b = 2 * block_b + _map_b(1, word_b, block_b) + _list_b(full + (1 if rest else 0), word_b, block_b)
+    b += full * (block_b + _blocks_b(item_b * _PAGE, block_b))
+    if rest:
+        b += block_b + _blocks_b(item_b * rest, block_b)
+    return b
+
+
+def track_heap_bytes(n, name_bytes=(), line_breaks=0, radii=False, word_b=4, float_b=4):
+    """The heap (bytes) a Track of n waypoints takes once loaded and validated (with its leg
+    cache full), by MicroPython's layout: objects of 4 words, allocations in blocks of 4 words,
+    an array = an object + its items, lists grown by doubling, attribute tables in the hash
+    sizes. name_bytes: the names' bytes per page of 128; line_breaks, radii: as _survey counts
+    them. The defaults describe the ESP32 (32-bit words, single-precision floats): that is the
+    figure TRACK_BUDGET_B limits, on every interpreter. Within 2 % of the measured allocation
+    on the unix port and the 32-bit build (tests/host/test_track_budget.py)."""
+    blk = 4 * word_b  # one GC block; an instance, an array object, a list object, a boxed float
+    b = _paged_b(4, n, word_b, blk) * 2 + _paged_b(2, n, word_b, blk)  # lat, lon, speed
+    if radii:
+        b += _paged_b(2, n, word_b, blk)
+    named = 0
+    for k in name_bytes:
+        named += k
+    if named:
+        b += _paged_b(2, n, word_b, blk) + _list_b(len(name_bytes), word_b, blk)
+        for k in name_bytes:
+            b += blk + _blocks_b(k, blk)
+    if line_breaks < 0 or 2 * line_breaks > n:
+        b += _paged_b(2, n, word_b, blk)
+    else:
+        b += blk + _blocks_b(4 * line_breaks, blk)
+    b += blk + _blocks_b(float_b * ((n + (1 << _START_SHIFT) - 1) >> _START_SHIFT), blk)  # _starts_m
+    b += 2 * blk + _map_b(19, word_b, blk)  # the Track, its 19 attributes, length_m
+    b += 2 * (2 * blk + _map_b(2, word_b, blk))  # waypoints and legs: _Seq and bound method
+    b += 2 * (blk + _blocks_b(_LEG_CACHE * word_b, blk))  # the cache's two lists
+    legs = min(_LEG_CACHE, n - 1) if n > 1 else 0
+    b += legs * (9 * blk + _map_b(11, word_b, blk))  # the cached legs: 11 attributes, 8 floats
+    return b
+
+
 def from_waypoints(waypoints, name=None):
     """A Track from waypoint objects (lat_e7, lon_e7, speed_mps, optional name, radius_m,
     line_no), e.g. a log's TRACK record; not validated."""
@@ -446,10 +517,11 @@ def _rewind(src):
         src.seek(0)
 
 
-def _survey(src):
+def _survey(src, budget_b=TRACK_BUDGET_B):
     """First pass: (waypoint lines, bytes of their names per page, waypoints whose line is not the
-    previous one's + 1, whether any has a radius), refusing more than MAX_WAYPOINTS before
-    anything is allocated for them."""
+    previous one's + 1, whether any has a radius), refusing more than MAX_WAYPOINTS, a name longer
+    than MAX_NAME_CHARS, or a track whose heap on the ESP32 (track_heap_bytes) would pass
+    budget_b, at the line where it does, before anything is allocated for them."""
     name_col = -1
     radius_col = -1
     n = 0
@@ -482,19 +554,28 @@ def _survey(src):
         if name_col >= 0 or radius_col >= 0:
             fields = line.split(",")
             if 0 <= name_col < len(fields):
-                name_bytes[-1] += len(fields[name_col].strip().encode())
+                wp_name = fields[name_col].strip()
+                if len(wp_name) > MAX_NAME_CHARS:
+                    raise TrackError(line_no, "name '%s' has %d characters: the most is %d (the "
+                                     "display's width)" % (wp_name, len(wp_name), MAX_NAME_CHARS))
+                name_bytes[-1] += len(wp_name.encode())
             if 0 <= radius_col < len(fields) and fields[radius_col].strip():
                 radii = True
+        heap_b = track_heap_bytes(n, name_bytes, breaks, radii)
+        if heap_b > budget_b:
+            raise TrackError(line_no, "the track up to here needs %d B of the board's memory, more "
+                             "than the %d B a track may take (tracks/README.md): shorten the names "
+                             "or split the track" % (heap_b, budget_b))
     return n, name_bytes, breaks, radii
 
 
-def parse_track_csv(src, min_leg_m=MIN_LEG_M, max_speed_mps=MAX_SPEED_MPS, name=None):
+def parse_track_csv(src, min_leg_m=MIN_LEG_M, max_speed_mps=MAX_SPEED_MPS, name=None, budget_b=TRACK_BUDGET_B):
     """Parse a track -> Track; raises TrackError(line_no, message).
 
     src: the CSV as str or bytes, or a file opened in binary mode (read twice, line by line:
-    first to count the waypoints and refuse more than MAX_WAYPOINTS, then into arrays sized
-    for them)."""
-    n_max, name_bytes, breaks, radii = _survey(src)
+    first to count the waypoints and refuse more than MAX_WAYPOINTS or a track whose heap would
+    pass budget_b, then into arrays sized for them)."""
+    n_max, name_bytes, breaks, radii = _survey(src, budget_b)
     _rewind(src)
     trk = Track(n_max, name, name_bytes, breaks, radii)
     cols = None
