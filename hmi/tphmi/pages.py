@@ -267,7 +267,10 @@ class Pages:
             self.text("ST  NO STATUS", 0, 20)
             self.text("compass     ---", 0, 29)
             self.text("locked      ---", 0, 38)
-        self.text("keys %10d" % st.keystrokes, 0, 47)
+        if st.pilot_hunts:  # its own loop swings: only a person can turn its gain down
+            self.text("HUNTS:lower gain", 0, 47)
+        else:
+            self.text("keys %10d" % st.keystrokes, 0, 47)
         self.text("hang rec %6d" % st.hang_recoveries, 0, 56)
 
     def _alarms(self, st, t_ms):
