@@ -170,6 +170,7 @@ class LosLaw:
         "min_speed_mps": (0.3, "m/s", 0.0, 3.0, "floor of the turn slow-down"),
         "adapt_max_scale": (4.0, "1", 1.0, 10.0, "swing watch: largest lookahead scale it may set (1 = off)"),
         "hunt_gentle": (0.0, "1", 0.0, 1.0, "when the pilot hunts: lookahead x2 and no lead (1 = on)"),
+        "adapt_clip_min_deg": (10.0, "deg", 1.0, 120.0, "swing watch: the straight's command clip not below this"),
         "adapt_split": (3.5, "1", 1.0, 20.0, "swing watch: period / (lookahead / U) below which the lead is cut"),
     }
 
@@ -356,7 +357,7 @@ class LosLaw:
         tan_rad, y, prev_rad, arc_r = self._path(prog, u_eff * self.preview_s)
         out.note = ""
         if self.adapt_max_scale > 1.0:
-            self._watch(dt_s, y, la / u_eff, arc_r == 0.0 and -0.035 < prev_rad < 0.035 and not prog.finished)
+            self._watch(dt_s, y, la / self.la_scale / u_eff, arc_r == 0.0 and -0.035 < prev_rad < 0.035 and not prog.finished)
         # adaptive crab (ALOS), anti-windup: frozen while clipped (the command or the approach
         # angle), far off or slow
         if (self.alos_gain > 0.0 and not out.clipped and not self._intercept_clamped
@@ -404,22 +405,25 @@ class LosLaw:
 
     def _watch(self, dt_s, y, t_la_s, straight):
         """The swing watch: the path xte keeps swinging (>= 0.5 m, two half cycles in a row that
-        decay by less than half, regular period) on a straight. A short period (< adapt_split x
-        lookahead / U) is the lead's heading feedback ringing with the pilot's own resonance: halve
-        the lead off. A long one is the outer loop under-damped for a slow heading response: lengthen
-        the lookahead (x2, the lead with it) up to adapt_max_scale. Turns do not count."""
+        decay by less than half, regular period) on a straight; t_la_s: the unscaled lookahead / U.
+        A short period (< adapt_split x t_la_s) is the lead's heading feedback ringing with the
+        pilot's own resonance: the lead goes off. A long one (or a short one with the lead off) is
+        the outer loop too fast for this pilot, or its ram saturating on large course steps:
+        lookahead x2 (the lead with it) up to adapt_max_scale and the straight's command clip
+        halved (not below adapt_clip_min_deg). Turns do not count and keep the clip as set."""
         if not straight:
             self.swing.reset()
             return
         if not self.swing.step(dt_s, y):
             return
         period_s = 2.0 * self.swing.first_s
+        clip_min = self.adapt_clip_min_deg / self.clip_deg
         if period_s < self.adapt_split * t_la_s and self.lead_scale > 0.0:
             self.lead_scale = 0.0
             what = "lead off"
-        elif self.la_scale < self.adapt_max_scale or self.clip_scale > 0.35:
+        elif self.la_scale < self.adapt_max_scale or self.clip_scale > clip_min:
             self.la_scale = min(self.adapt_max_scale, self.la_scale * 2.0)
-            self.clip_scale = max(0.3, self.clip_scale * 0.6)
+            self.clip_scale = max(clip_min, self.clip_scale * 0.5)
             what = "lookahead x%.2f, clip %.0f deg" % (self.la_scale, self.clip_deg * self.clip_scale)
         else:
             what = "at its limits"
