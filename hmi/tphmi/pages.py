@@ -4,7 +4,8 @@ Pages (PAGE_NAMES, cycled by the PAGE button):
     main    mode, RTK state, cross-track error (2x digits, L/R) with a left/right bar, heading vs
             command, speed and RPM, leg i/N with the distance to the next waypoint
     gnss    RTK state, satellites, accuracy, heading and its accuracy, correction age, position
-    pilot   trackpilot mode, the pilot's mode, compass, locked course, keystrokes, hang recoveries
+    pilot   trackpilot mode, the pilot's mode, compass, locked course, keystrokes (or "HUNTS:lower gain"
+            while the pilot watch reports hunting), hang recoveries
     alarms  active alarms (! = sounding, not acknowledged), the latest reason, the E-stop input
 Overlays on every page: the E-stop input (header), an engage refusal with its reason, the AUTO
 hold progress, and a short transient message. The remote box draws `link_lost()` instead of the
