@@ -4,7 +4,8 @@ Pages (PAGE_NAMES, cycled by the PAGE button):
     main    mode, RTK state, cross-track error (2x digits, L/R) with a left/right bar, heading vs
             command, speed and RPM, leg i/N with the distance to the next waypoint
     gnss    RTK state, satellites, accuracy, heading and its accuracy, correction age, position
-    pilot   trackpilot mode, the pilot's mode, compass, locked course, keystrokes, hang recoveries
+    pilot   trackpilot mode, the pilot's mode, compass, locked course, keystrokes (or "HUNTS:lower gain"
+            while the pilot watch reports hunting), hang recoveries
     alarms  active alarms (! = sounding, not acknowledged), the latest reason, the E-stop input
 Overlays on every page: the E-stop input (header), an engage refusal with its reason, the AUTO
 hold progress, and a short transient message. The remote box draws `link_lost()` instead of the
@@ -267,7 +268,10 @@ class Pages:
             self.text("ST  NO STATUS", 0, 20)
             self.text("compass     ---", 0, 29)
             self.text("locked      ---", 0, 38)
-        self.text("keys %10d" % st.keystrokes, 0, 47)
+        if st.pilot_hunts:  # its own loop swings: only a person can turn its gain down
+            self.text("HUNTS:lower gain", 0, 47)
+        else:
+            self.text("keys %10d" % st.keystrokes, 0, 47)
         self.text("hang rec %6d" % st.hang_recoveries, 0, 56)
 
     def _alarms(self, st, t_ms):

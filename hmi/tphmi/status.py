@@ -107,6 +107,7 @@ FIELDS = (
     ("locked_deg", 0.0),  # the pilot's locked course
     ("keystrokes", 0),  # course keystrokes sent since boot
     ("hang_recoveries", 0),  # Standby-Auto recoveries since boot
+    ("pilot_hunts", False),  # the pilot's own loop hunts: lower its response/rudder gain (core/pilotwatch.py)
     # Wi-Fi (trackpilot.board.wifi): station state and access point
     ("wifi", 0),  # 0 off, 1 connecting, 2 up, 3 retry (WIFI_NAMES)
     ("wifi_ap", False),  # the access point is on
@@ -198,7 +199,7 @@ def encode_status(st):
         _clamp(st.mode, 0, 255),
         st.flags(),
         (1 if st.pilot_ok else 0) | ((st.wifi & 3) << 1) | (8 if st.wifi_ap else 0)
-        | (16 if st.gnss_cfg_failed else 0),
+        | (16 if st.gnss_cfg_failed else 0) | (32 if st.pilot_hunts else 0),
         _clamp(st.rtk, 0, 255),
         st.alarms & 0xFFFF,
         st.sounding & 0xFFFF,
@@ -278,6 +279,7 @@ def decode_status(pkt, st=None):
     st.wifi = (flags2 >> 1) & 3
     st.wifi_ap = bool(flags2 & 8)
     st.gnss_cfg_failed = bool(flags2 & 16)
+    st.pilot_hunts = bool(flags2 & 32)
     st.wind_angle_deg = -1.0 if trailer[0] == 65535 else trailer[0] / 10.0
     st.wind_speed_mps = -1.0 if trailer[1] == 65535 else trailer[1] / 100.0
     st.battery_v = -1.0 if trailer[2] == 65535 else trailer[2] / 100.0
@@ -377,6 +379,8 @@ def status_from_app(app, t_ms, st=None):
         st.locked_deg = float(_num(getattr(pilot, "course_deg", None), 0.0))
         st.keystrokes = getattr(pilot, "keys_sent", 0)
         st.hang_recoveries = getattr(pilot, "recoveries", 0)
+    watch = getattr(app, "pilot_watch", None)
+    st.pilot_hunts = bool(getattr(watch, "hunting", False))
     bv = getattr(motor, "battery_v", None) if motor is not None else None
     st.battery_v = -1.0 if bv is None else float(bv)
     wind = getattr(app, "wind", None)

@@ -299,3 +299,71 @@ def test_make_law_from_config_sections():
     g["los_bogus"] = 1.0
     t.raises(ValueError, make_law, g, {})
     t.raises(ValueError, make_law, {"law": "pid"}, {})
+
+
+def _swing(law, period_s, amp_m, seconds, t_la_s=6.0, straight=True, dt_s=0.2):
+    notes = []
+    for k in range(int(seconds / dt_s)):
+        law.out.note = ""
+        law._watch(dt_s, amp_m * math.sin(2 * math.pi * k * dt_s / period_s), t_la_s, straight)
+        if law.out.note:
+            notes.append(law.out.note)
+    return notes
+
+
+def test_los_swing_watch_actions():
+    # a short-period swing (12 s < 3.5 x 6 s): the lead goes off, nothing else
+    law = LosLaw()
+    notes = _swing(law, 12.0, 3.0, 20.0)
+    t.eq(len(notes), 1, notes)
+    t.true("lead off" in notes[0], notes)
+    t.eq(law.lead_scale, 0.0)
+    t.eq(law.la_scale, 1.0)
+    t.eq(law.clip_scale, 1.0)
+    # a long-period swing (40 s): lookahead x2, the straight's clip halved
+    law = LosLaw()
+    notes = _swing(law, 40.0, 3.0, 70.0)
+    t.eq(len(notes), 1, notes)
+    t.eq(law.la_scale, 2.0)
+    t.near(law.clip_scale * law.clip_deg, 22.5, 1e-3)
+    t.eq(law.lead_scale, 1.0)
+    # it keeps swinging: up to the limits (lookahead x4, clip 10 deg), then says so
+    notes = _swing(law, 40.0, 3.0, 400.0)
+    t.eq(law.la_scale, 4.0)
+    t.near(law.clip_scale * law.clip_deg, 10.0, 1e-3)
+    t.true("at its limits" in notes[-1], notes)
+    # the scales survive a re-engage (the same boat)
+    law.reset()
+    t.eq(law.la_scale, 4.0)
+
+
+def test_los_swing_watch_quiet_in_turns_and_when_damped_or_off():
+    law = LosLaw()
+    t.eq(_swing(law, 12.0, 3.0, 100.0, straight=False), [])  # on an arc: not counted
+    t.eq(_swing(law, 20.0, 0.3, 200.0), [])  # +-0.3 m: below the 0.5 m amplitude
+    law = LosLaw(adapt_max_scale=1.0)
+    fix = make_fix(3.0, 40.0, 0.0)
+    prog = Progress(_corner())
+    for k in range(600):  # the whole step with the watch off: never a note, never a scale
+        fix = make_fix(3.0 * math.sin(2 * math.pi * k * 0.2 / 12.0), 40.0 + k * 0.01, 0.0)
+        out = _step(law, prog, fix)
+        t.eq(out.note, "")
+    t.eq(law.lead_scale, 1.0)
+
+
+def test_los_swing_watch_in_the_step_lowers_the_lead():
+    # the same through step(): the path xte swinging +-3 m with a 12 s period at 2 m/s
+    law = LosLaw()
+    prog = Progress(_corner())
+    notes = []
+    for k in range(100):  # 20 s: fires once, after the second counted half cycle (18 s)
+        ts = k * 0.2
+        f = make_fix(3.0 * math.sin(2 * math.pi * ts / 12.0), 10.0 + 2.0 * ts, 0.0)
+        f.vel_valid = True
+        f.sog_mps = 2.0
+        f.cog_deg = 0.0
+        out = _step(law, prog, f)
+        if out.note:
+            notes.append(out.note)
+    t.eq(len(notes), 1, notes)
+    t.eq(law.lead_scale, 0.0)

@@ -128,6 +128,8 @@ def test_other_pages():
     T.true(text_at(buf, "locked    133.0", 0, 38))
     T.true(text_at(buf, "keys        412", 0, 47))
     T.true(text_at(buf, "hang rec      1", 0, 56))
+    p.render(_st("auto_right", pilot_hunts=True), 2, 0)  # issue 10: the pilot watch's advice
+    T.true(text_at(buf, "HUNTS:lower gain", 0, 47), "pilot hunting shown")
     p.render(_st("alarm_gnss"), 3, 0)
     T.true(text_at(buf, "ALARMS 2", 1, 1, inverted=True))
     T.true(text_at(buf, " gnss", 0, 11), "acknowledged alarm without !")

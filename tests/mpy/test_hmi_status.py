@@ -81,3 +81,13 @@ def test_receiver_config_failure_travels_in_flags2():
     T.eq((d.gnss_cfg_failed, d.wifi, d.wifi_ap, d.pilot_ok), (True, 3, True, True))
     st.update({"gnss_cfg_failed": False})
     T.eq(decode_status(encode_status(st)).gnss_cfg_failed, False)
+
+
+def test_pilot_hunting_travels_in_flags2():
+    # issue 10: the pilot watch's "pilot hunts" (flags2 bit 5), beside the other bits
+    st = _full()
+    st.update({"pilot_hunts": True, "gnss_cfg_failed": True, "wifi": 2})
+    d = decode_status(encode_status(st))
+    T.eq((d.pilot_hunts, d.gnss_cfg_failed, d.wifi, d.pilot_ok), (True, True, 2, True))
+    st.update({"pilot_hunts": False})
+    T.eq(decode_status(encode_status(st)).pilot_hunts, False)

@@ -115,6 +115,10 @@ class Autopilot:
         self._offset_status_ms = None
         self._offset_n = 0
         self._prev_heading = None
+        from trackpilot.core.pilotwatch import PilotWatch
+
+        self.pilot_watch = PilotWatch()  # does the pilot's own loop hunt?
+        self._watch_status_ms = None
         self.refusal = ""
         self.corr_age_s = None  # age of the last RTK correction frame (the shell's reading)
         self.estop_input = False
@@ -389,6 +393,8 @@ class Autopilot:
                 self.save_state(t_ms)
         if out is not None:
             self.heading_cmd_deg = out.heading_cmd_deg
+            if getattr(out, "note", ""):  # the los swing watch changed its tuning
+                self.event("GUIDE", out.note)
             mm.xte(t_ms, self.progress.xte_m, 2.0 if fix.rtk == RTK_FLOAT else 1.0)
             if self.progress.finished:
                 mm.arrived(t_ms, self.progress.finish_reason)
@@ -400,6 +406,7 @@ class Autopilot:
         self.apply_pilot(t_ms)
         if epoch:
             self.update_compass_offset(t_ms)
+            self.watch_pilot(t_ms)
         fix = nav
         if mm.pilot == M.PILOT_STEER and out is not None and fix.heading_valid and self.pilot.commanding():
             # in the pilot's own compass frame: cancels its compass error (seed report 4.7)
@@ -546,6 +553,23 @@ class Autopilot:
         # PILOT_HOLD in AUTO(degraded/hold): no new steps; hang recovery stays allowed (AUTO).
         # PILOT_RECOVER: the driver runs Standby -> Auto -> re-step itself (st2000.py).
         self.wake_seatalk = True
+
+    def watch_pilot(self, t_ms):
+        """Feed each new pilot status to the pilot watch while we steer; log when the pilot
+        starts or stops hunting (a person must lower its gain: shown on the HMI)."""
+        p = self.pilot
+        st_ms = p.last_status_ms
+        if self.mm.mode != M.AUTO or st_ms is None or st_ms == self._watch_status_ms:
+            return
+        dt_s = 0.5 if self._watch_status_ms is None else ticks_diff(st_ms, self._watch_status_ms) / 1000.0
+        self._watch_status_ms = st_ms
+        text = self.pilot_watch.step(st_ms, dt_s, p.heading_deg, p.course_deg)
+        if text:
+            self.event("PILOT", text)
+            if self.pilot_watch.hunting and hasattr(self.law, "pilot_hunts"):
+                note = self.law.pilot_hunts()  # steer it gently (the los law)
+                if note:
+                    self.event("GUIDE", note)
 
     def update_compass_offset(self, t_ms):
         """Low-pass estimate of (pilot compass - true heading). Steering to command + offset in the

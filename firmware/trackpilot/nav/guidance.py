@@ -22,6 +22,7 @@ LosLaw ("los"): line-of-sight path following with measured crab-angle compensati
 import math
 
 from trackpilot.compat import wrap180, wrap360
+from trackpilot.nav.swing import SwingWatch
 
 _RAD = math.pi / 180.0
 _HALF_PI = math.pi * 0.5
@@ -48,6 +49,7 @@ class GuidanceOut:
         self.blend = 0.0  # seed: heading blend factor c
         self.arc_radius_m = 0.0  # radius of the rounded corner the boat is on, 0 on a straight
         self.finished = False
+        self.note = ""  # los: what the swing watch changed this step (the app logs it), else ""
 
 
 def _configure(obj, params):
@@ -166,6 +168,10 @@ class LosLaw:
         "max_turn_rate_dps": (10.0, "deg/s", 0.0, 60.0, "slow down so U / r stays below this (0 = off)"),
         "speed_tc_s": (5.0, "s", 0.0, 60.0, "surge lag: speed changes start this many seconds early"),
         "min_speed_mps": (0.3, "m/s", 0.0, 3.0, "floor of the turn slow-down"),
+        "adapt_max_scale": (4.0, "1", 1.0, 10.0, "swing watch: largest lookahead scale it may set (1 = off)"),
+        "hunt_gentle": (0.0, "1", 0.0, 1.0, "when the pilot hunts: lookahead x2 and no lead (1 = on)"),
+        "adapt_clip_min_deg": (10.0, "deg", 1.0, 120.0, "swing watch: the straight's command clip not below this"),
+        "adapt_split": (3.5, "1", 1.0, 20.0, "swing watch: period / (lookahead / U) below which the lead is cut"),
     }
 
     def __init__(self, **params):
@@ -173,6 +179,12 @@ class LosLaw:
         _configure(self, params)
         self.out = GuidanceOut(self.name)
         self._track = None
+        # the swing watch on the path xte (docs/NAVIGATION.md "Adapting to the boat"): its
+        # scales belong to the boat, so they outlive reset() (a new engage, the same boat)
+        self.swing = SwingWatch(0.2, 0.5, 2, min_half_s=2.0, max_half_s=60.0)
+        self.la_scale = 1.0
+        self.lead_scale = 1.0
+        self.clip_scale = 1.0
         self.reset()
 
     def configure(self, params):
@@ -184,6 +196,7 @@ class LosLaw:
         self.crab_ok = False
         self.beta_hat_rad = 0.0
         self._intercept_clamped = False
+        self.swing.reset()
         self.out.valid = False
         self.out.clipped = False
 
@@ -339,8 +352,12 @@ class LosLaw:
                 self.crab_ok = True
             else:
                 self.crab_f_deg += (c - self.crab_f_deg) * (dt_s / (self.crab_tc_s + dt_s))
-        la = _clip(self.lookahead_gain * u_eff * self.heading_tc_s, self.lookahead_min_m, self.lookahead_max_m)
+        la = _clip(self.lookahead_gain * u_eff * self.heading_tc_s, self.lookahead_min_m,
+                   self.lookahead_max_m) * self.la_scale
         tan_rad, y, prev_rad, arc_r = self._path(prog, u_eff * self.preview_s)
+        out.note = ""
+        if self.adapt_max_scale > 1.0:
+            self._watch(dt_s, y, la / self.la_scale / u_eff, arc_r == 0.0 and -0.035 < prev_rad < 0.035 and not prog.finished)
         # adaptive crab (ALOS), anti-windup: frozen while clipped (the command or the approach
         # angle), far off or slow
         if (self.alos_gain > 0.0 and not out.clipped and not self._intercept_clamped
@@ -352,17 +369,19 @@ class LosLaw:
         # damping: the xte predicted xte_lead_s ahead from the course made good (heading + the
         # filtered crab: quieter than the raw COG), so the heading loop's lag cannot ring
         y_lead = y
-        if self.xte_lead_s > 0.0 and self.crab_ok:
+        t_lead_s = self.xte_lead_s * self.lead_scale * self.la_scale  # T_d / T_la kept as set
+        if t_lead_s > 0.0 and self.crab_ok:
             chi_rad = wrap180(fix.heading_deg + self.crab_f_deg - prog.leg_bearing_deg) * _RAD - tan_rad
-            y_lead = y + self.xte_lead_s * u * math.sin(chi_rad)
+            y_lead = y + t_lead_s * u * math.sin(chi_rad)
         corr = -math.atan2(y_lead, la) / _RAD
         self._intercept_clamped = corr > self.intercept_max_deg or corr < -self.intercept_max_deg
         corr = _clip(corr, -self.intercept_max_deg, self.intercept_max_deg)
         course = prog.leg_bearing_deg + (tan_rad + prev_rad) / _RAD + corr
         cmd = course - crab - self.beta_hat_rad / _RAD
         rel = wrap180(cmd - fix.heading_deg)
-        out.clipped = rel > self.clip_deg or rel < -self.clip_deg
-        rel = _clip(rel, -self.clip_deg, self.clip_deg)
+        lim = self.clip_deg * self.clip_scale if arc_r == 0.0 else self.clip_deg  # turns: as set
+        out.clipped = rel > lim or rel < -lim
+        rel = _clip(rel, -lim, lim)
         out.rel_cmd_deg = rel
         out.heading_cmd_deg = wrap360(fix.heading_deg + rel)
         out.ref_course_deg = wrap360(prog.leg_bearing_deg + (tan_rad + prev_rad) / _RAD)
@@ -375,6 +394,40 @@ class LosLaw:
         out.arc_radius_m = arc_r
         out.valid = True
         return out
+
+    def pilot_hunts(self):
+        """The pilot's own loop hunts (core/pilotwatch.py): steer it gently. Returns a note or ""."""
+        if self.hunt_gentle <= 0.0 or (self.lead_scale == 0.0 and self.la_scale >= 2.0):
+            return ""
+        self.lead_scale = 0.0
+        self.la_scale = max(self.la_scale, min(2.0, self.adapt_max_scale))
+        return "pilot hunts: lead off, lookahead x%.2f" % self.la_scale
+
+    def _watch(self, dt_s, y, t_la_s, straight):
+        """The swing watch: the path xte keeps swinging (>= 0.5 m, two half cycles in a row that
+        decay by less than half, regular period) on a straight; t_la_s: the unscaled lookahead / U.
+        A short period (< adapt_split x t_la_s) is the lead's heading feedback ringing with the
+        pilot's own resonance: the lead goes off. A long one (or a short one with the lead off) is
+        the outer loop too fast for this pilot, or its ram saturating on large course steps:
+        lookahead x2 (the lead with it) up to adapt_max_scale and the straight's command clip
+        halved (not below adapt_clip_min_deg). Turns do not count and keep the clip as set."""
+        if not straight:
+            self.swing.reset()
+            return
+        if not self.swing.step(dt_s, y):
+            return
+        period_s = 2.0 * self.swing.first_s
+        clip_min = self.adapt_clip_min_deg / self.clip_deg
+        if period_s < self.adapt_split * t_la_s and self.lead_scale > 0.0:
+            self.lead_scale = 0.0
+            what = "lead off"
+        elif self.la_scale < self.adapt_max_scale or self.clip_scale > clip_min:
+            self.la_scale = min(self.adapt_max_scale, self.la_scale * 2.0)
+            self.clip_scale = max(clip_min, self.clip_scale * 0.5)
+            what = "lookahead x%.2f, clip %.0f deg" % (self.la_scale, self.clip_deg * self.clip_scale)
+        else:
+            what = "at its limits"
+        self.out.note = "xte swings +-%.1f m, period %.0f s: %s" % (self.swing.amp, period_s, what)
 
     def _speed(self, prog, leg):
         """The leg's speed, eased towards the next leg's before the waypoint (surge lag), and
