@@ -171,6 +171,8 @@ class LosLaw:
         "adapt_max_scale": (4.0, "1", 1.0, 10.0, "swing watch: largest lookahead scale it may set (1 = off)"),
         "hunt_gentle": (0.0, "1", 0.0, 1.0, "when the pilot hunts: lookahead x2 and no lead (1 = on)"),
         "adapt_clip_min_deg": (10.0, "deg", 1.0, 120.0, "swing watch: the straight's command clip not below this"),
+        "adapt_swing_m": (1.0, "m", 0.2, 10.0, "swing watch: a half cycle counts from this amplitude of the path xte"),
+        "adapt_keep": (0.6, "1", 0.1, 1.0, "swing watch: each half cycle keeps at least this share of the one before"),
         "adapt_split": (3.5, "1", 1.0, 20.0, "swing watch: period / (lookahead / U) below which the lead is cut"),
     }
 
@@ -404,8 +406,8 @@ class LosLaw:
         return "pilot hunts: lead off, lookahead x%.2f" % self.la_scale
 
     def _watch(self, dt_s, y, t_la_s, straight):
-        """The swing watch: the path xte keeps swinging (>= 0.5 m, two half cycles in a row that
-        decay by less than half, regular period) on a straight; t_la_s: the unscaled lookahead / U.
+        """The swing watch: the path xte keeps swinging (>= adapt_swing_m, two half cycles in a row
+        that each keep adapt_keep of the one before, regular period) on a straight; t_la_s: the unscaled lookahead / U.
         A short period (< adapt_split x t_la_s) is the lead's heading feedback ringing with the
         pilot's own resonance: the lead goes off. A long one (or a short one with the lead off) is
         the outer loop too fast for this pilot, or its ram saturating on large course steps:
@@ -414,6 +416,8 @@ class LosLaw:
         if not straight:
             self.swing.reset()
             return
+        self.swing.amp_min = self.adapt_swing_m  # as configured (configure() may change them)
+        self.swing.keep_ratio = self.adapt_keep
         if not self.swing.step(dt_s, y):
             return
         period_s = 2.0 * self.swing.first_s
