@@ -52,6 +52,15 @@ def _app():
     return App(w, config.defaults(), ()), w
 
 
+def _app_with_a_track():
+    """An app that has loaded a good 40-waypoint track: (app, wiring, that track)."""
+    app, w = _app()
+    good = DIR + "/good.csv"
+    track_heap.write_track(good, 40)
+    app.load_track(good)
+    return app, w, app.track
+
+
 def _write(path, data):
     with open(path, "wb") as f:
         f.write(data)
@@ -99,11 +108,7 @@ def test_over_the_budget_refused():
     if not HAVE_ASYNCIO:
         print("skipped: no asyncio")
         return
-    app, w = _app()
-    good = DIR + "/good.csv"
-    track_heap.write_track(good, 40)
-    app.load_track(good)
-    first = app.track
+    app, w, first = _app_with_a_track()
     path = DIR + "/heavy.csv"
     track_heap.write_budget_track(path, track.MAX_WAYPOINTS, over=True)
     ok, msg = app.load_track(path)
@@ -116,11 +121,7 @@ def test_memory_error_is_a_refusal():
     if not HAVE_ASYNCIO:
         print("skipped: no asyncio")
         return
-    app, w = _app()
-    good = DIR + "/good.csv"
-    track_heap.write_track(good, 40)
-    app.load_track(good)
-    first = app.track
+    app, w, first = _app_with_a_track()
     real = track.load_file
 
     def no_memory(path, min_leg_m=track.MIN_LEG_M):
@@ -128,7 +129,7 @@ def test_memory_error_is_a_refusal():
 
     track.load_file = no_memory
     try:
-        ok, msg = app.load_track(good)
+        ok, msg = app.load_track(DIR + "/good.csv")
     finally:
         track.load_file = real
     t.true(not ok and "not enough memory" in msg and "previous track stays" in msg, msg)
