@@ -164,6 +164,33 @@ def oscillation(samples, amp_m=0.5, band_m=0.1, min_half_cycles=3, keep_ratio=0.
             "period_s": round(best_per, 1)}
 
 
+def outside_by_phase(rows, corners_m, tol_m=1.5, near_m=15.0, after_m=30.0):
+    """Where the time outside +-tol_m goes in a turn case (% of all AUTO samples): the approach
+    (before |xte| first comes within tol_m), the corners (track distance within near_m of a
+    corner), the settle after a corner (near_m..after_m past one) and the rest of the straights;
+    of the last, out_start_pct: the first leg before its corner (the start from rest)."""
+    n = len(rows)
+    out = {"out_approach_pct": 0, "out_corner_pct": 0, "out_exit_pct": 0, "out_straight_pct": 0,
+           "out_start_pct": 0}
+    reached = False
+    for _, x, s_m, _, _ in rows:
+        inside = abs(x) <= tol_m
+        reached = reached or inside
+        if inside:
+            continue
+        if not reached:
+            out["out_approach_pct"] += 1
+        elif any(abs(s_m - c) <= near_m for c in corners_m):
+            out["out_corner_pct"] += 1
+        elif any(0.0 < s_m - c <= after_m for c in corners_m):
+            out["out_exit_pct"] += 1
+        else:
+            out["out_straight_pct"] += 1
+            if corners_m and s_m < corners_m[0]:
+                out["out_start_pct"] += 1
+    return {k: round(100.0 * v / n, 2) for k, v in out.items()}
+
+
 def _rms(v):
     return math.sqrt(sum(x * x for x in v) / len(v)) if v else None
 
@@ -184,6 +211,8 @@ def analyse(res, kind, sender_id=1):
     m["max_m"] = round(max(abs(x) for x in allx), 3)
     m["within_1p5_pct"] = round(100.0 * sum(1 for x in allx if abs(x) <= 1.5) / len(allx), 2)
     m["rms_all_m"] = round(_rms(allx), 3)
+    if kind == "turns":
+        m.update(outside_by_phase(rows, res["geom"].corners_m))
     if kind == "line":
         st = [(t, x) for t, x, _, _, s in rows if s]
         k0 = settle_index(st)

@@ -70,6 +70,23 @@ def test_oscillation_metric():
     assert not BR.oscillation(sig)["oscillates"]
 
 
+def test_outside_by_phase():
+    """Each sample outside 1.5 m lands in exactly one phase; corners at 50 and 100 m of track."""
+    rows = [(k * 0.5, x, s, s, True) for k, (x, s) in enumerate([
+        (3.0, 0.0), (2.0, 2.0),  # approach: before the first sample within 1.5 m
+        (1.0, 4.0), (2.0, 10.0),  # back in; then out on the first leg (start, straight)
+        (0.5, 30.0), (1.6, 40.0), (-2.0, 55.0),  # inside; two out within 15 m of the corner at 50
+        (1.7, 70.0), (1.4, 75.0), (1.8, 90.0),  # out 20 m past it (exit); 90: near the next corner
+        (1.9, 140.0), (0.0, 150.0)])]  # 40 m past the last corner: straight
+    o = BR.outside_by_phase(rows, [50.0, 100.0])
+    n = len(rows)
+    assert o["out_approach_pct"] == round(100.0 * 2 / n, 2)
+    assert o["out_corner_pct"] == round(100.0 * 3 / n, 2)
+    assert o["out_exit_pct"] == round(100.0 * 1 / n, 2)
+    assert o["out_straight_pct"] == round(100.0 * 2 / n, 2)
+    assert o["out_start_pct"] == round(100.0 * 1 / n, 2)
+
+
 def _free_port():
     s = socket.socket()
     s.bind(("127.0.0.1", 0))

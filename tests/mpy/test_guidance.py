@@ -367,3 +367,24 @@ def test_los_swing_watch_in_the_step_lowers_the_lead():
             notes.append(out.note)
     t.eq(len(notes), 1, notes)
     t.eq(law.lead_scale, 0.0)
+
+
+def test_alos_held_in_corners():
+    # _corner(): north 100 m at 2 m/s, arc of 13.5 m from n = 86.5. ALOS (alos_zone_m 5 m) learns
+    # on the straight; it is held on the arc and in the corner's preview (preview_s 3.5 s x 2 m/s
+    # = 7 m before the arc); alos_turn_hold = 0: it learns there too, as before.
+    def integral_moves(hold, e, n, heading, sog):
+        law = LosLaw(alos_turn_hold=hold, crab_use=0.0)
+        prog = Progress(_corner())
+        out = _step(law, prog, make_fix(e, n, heading, sog_mps=sog))
+        i0 = out.integral_deg
+        for _ in range(20):
+            out = _step(law, prog, make_fix(e, n, heading, sog_mps=sog))
+        return abs(out.integral_deg - i0) > 1e-3
+    t.true(integral_moves(1.0, 1.0, 40.0, 0.0, 2.0), "straight at speed: learns")
+    t.true(integral_moves(1.0, 1.0, 78.0, 0.0, 2.0), "8.5 m before the arc, beyond the preview: learns")
+    t.true(not integral_moves(1.0, 1.0, 83.0, 0.0, 2.0), "in the corner's preview: held")
+    t.true(integral_moves(0.0, 1.0, 83.0, 0.0, 2.0), "in the preview, hold off: learns")
+    e, n = 13.5 - 14.5 * math.cos(math.radians(30)), 86.5 + 14.5 * math.sin(math.radians(30))
+    t.true(not integral_moves(1.0, e, n, 30.0, 2.0), "on the arc, 1 m outside: held")
+    t.true(integral_moves(0.0, e, n, 30.0, 2.0), "on the arc, hold off: learns")

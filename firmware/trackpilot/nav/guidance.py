@@ -138,7 +138,8 @@ class LosLaw:
     "Robust over boats we have not modelled")
     heading_cmd = course_d - crab (measured COG - heading, low-pass) - beta_hat (ALOS)
     beta_hat' = gamma * lookahead / sqrt(lookahead^2 + y^2) * y, frozen while the command is
-    clipped, while far off the path or slow (anti-windup), and clamped.
+    clipped, while far off the path or slow (anti-windup), on arcs and in a corner's preview
+    (alos_turn_hold), and clamped.
     lookahead = clamp(lookahead_gain * U * heading_tc_s, min, max) = 6 s x U by default, from
     the closed heading response's spread with a stability margin (docs/NAVIGATION.md).
     Defaults: docs/NAVIGATION.md "Tuning".
@@ -164,6 +165,7 @@ class LosLaw:
         "alos_gain": (0.004, "rad/(m s)", 0.0, 0.1, "adaptive crab gain gamma (0 = off)"),
         "alos_max_deg": (20.0, "deg", 0.0, 45.0, "clamp of the adaptive crab estimate"),
         "alos_zone_m": (5.0, "m", 0.1, 100.0, "adapt only within this distance of the path"),
+        "alos_turn_hold": (1.0, "1", 0.0, 1.0, "ALOS held on arcs and in a corner's preview (1 = on; 0 = learns there too)"),
         "clip_deg": (45.0, "deg", 5.0, 120.0, "clip of the relative command (heading_cmd - heading)"),
         "max_turn_rate_dps": (10.0, "deg/s", 0.0, 60.0, "slow down so U / r stays below this (0 = off)"),
         "speed_tc_s": (5.0, "s", 0.0, 60.0, "surge lag: speed changes start this many seconds early"),
@@ -362,7 +364,10 @@ class LosLaw:
             self._watch(dt_s, y, la / self.la_scale / u_eff, arc_r == 0.0 and -0.035 < prev_rad < 0.035 and not prog.finished)
         # adaptive crab (ALOS), anti-windup: frozen while clipped (the command or the approach
         # angle), far off or slow
-        if (self.alos_gain > 0.0 and not out.clipped and not self._intercept_clamped
+        # held through corners: a turn's lag is not a steady crab, and what it learnt there
+        # pushed the boat off after the corner (docs/NAVIGATION.md "Turns over the random boats")
+        turning = self.alos_turn_hold > 0.0 and (arc_r > 0.0 or prev_rad != 0.0)
+        if (self.alos_gain > 0.0 and not out.clipped and not self._intercept_clamped and not turning
                 and abs(y) < self.alos_zone_m and u >= self.crab_min_speed_mps and not prog.finished):
             self.beta_hat_rad += dt_s * self.alos_gain * la / math.sqrt(la * la + y * y) * y
             lim = self.alos_max_deg * _RAD
