@@ -1,147 +1,161 @@
-"""TauEstimate: the closed heading response (pilot + boat + keys) measured on line from steps.
+"""TauEstimate: the closed heading response (pilot + boat + keys) measured on line.
 
-Fed once per control step (t_ms, locked course in the true frame, true heading, ok). A *step* is a
-move of the locked course by at least step_min_deg, gathered over gather_ms (several 1 deg keys
-land one after the other), that starts from quiet: the locked course unchanged for quiet_ms before
-it. From the step on, the heading's progress p = (heading - heading at the step) / (step of the
-locked course) is bias-free (the pilot's deadband and the compass offset shift both ends alike).
-The two-point rule on a first order plus dead time (Smith): t28 and t63 at p = 0.283 and 0.632,
-time constant T = 1.5 (t63 - t28), dead time L = t63 - T; the sample of tau is t63 (= T + L, the
-lag the guidance loop sees). A step is dropped when the locked course moves again by more than
-max(1 deg, 25 % of the step), when ok goes false (a turn, a gap, not steering), or when 63 % is not
-reached within timeout_ms (a deadband can stop the heading short: not a slow pilot).
-The estimate is the median of the last three samples (the dead time likewise), the slots starting at the prior (two
-samples that agree move it), bounded to lo_s..hi_s. The largest progress seen before the next step
-or 3 x t63 is the overshoot (an under-damped pilot).
+The law's locked course moves with nearly every epoch (1 deg keys, the lead term), so clean steps
+from a quiet course are rare (none on the nominal boat's straights): the estimate fits a first-order
+response to whatever the course did. A bank of N first-order models, time constants lo_s..hi_s
+spaced by a constant ratio, each driven by the locked course and started at the measured heading
+at the start of a window of window_s; each model's squared error against the GNSS heading is summed
+over the window. The pilot's deadband, weather helm and its compass offset shift the heading
+against the locked course without a turn: each model's residual is taken after the best constant
+offset of the course and of the heading over the window (least squares on five sums a model).
+A window counts when the heading moved at least step_min_deg in it (else nothing
+tells a fast pilot from a slow one), the course no more than step_max_deg (a larger step saturates
+the ram: the engage's approach, a rate limit, not the linear lag the law's margin is about), and the best model explains it (residual RMS at most fit_max of
+the heading's largest move); its sample is the best time constant, refined by a parabola in log tau
+through its neighbours. The estimate is the median of the last three samples, the slots starting
+at the prior (two samples that agree move it), bounded to lo_s..hi_s. A time constant fitted this
+way includes the dead time (keys, reply, compass lag): the lag the guidance loop sees.
+A turn, a gap or not steering (ok false) drops the window; the estimate stays.
 
-A few floats, ticks only through ticks_diff, nothing allocated per step (MicroPython)."""
+Floats and one small preallocated list, ticks only through ticks_diff, nothing allocated per step."""
+
+import math
 
 from trackpilot.compat import ticks_diff, wrap180
 
+N_MODELS = 8
+
 
 class TauEstimate:
-    def __init__(self, prior_s, lo_s=1.0, hi_s=20.0, step_min_deg=4.0, quiet_ms=2000,
-                 gather_ms=1500, timeout_ms=25000):
+    def __init__(self, prior_s, lo_s=1.0, hi_s=20.0, step_min_deg=4.0, window_s=20.0, fit_max=0.35,
+                 step_max_deg=15.0):
         self.prior_s = prior_s
         self.lo_s = lo_s
         self.hi_s = hi_s
         self.step_min_deg = step_min_deg
-        self.quiet_ms = quiet_ms
-        self.gather_ms = gather_ms
-        self.timeout_ms = timeout_ms
+        self.window_s = window_s
+        self.fit_max = fit_max
+        self.step_max_deg = step_max_deg
+        self.tau_k = [0.0] * N_MODELS
+        self.h_k = [0.0] * N_MODELS
+        self.e_k = [0.0] * N_MODELS  # sum of r^2 dt, r = heading - model
+        self.g_k = [0.0] * N_MODELS  # each model's response to a unit offset of the course
+        self.a_k = [0.0] * N_MODELS  # sum of r g dt
+        self.b_k = [0.0] * N_MODELS  # sum of g^2 dt
+        self.c_k = [0.0] * N_MODELS  # sum of r dt
+        self.d_k = [0.0] * N_MODELS  # sum of g dt
         self.restart()
 
     def restart(self):
         """Back to the prior (a power cycle or a new configuration)."""
+        r = (self.hi_s / self.lo_s) ** (1.0 / (N_MODELS - 1))
+        for k in range(N_MODELS):
+            self.tau_k[k] = self.lo_s * r ** k
+        self.log_r = math.log(r)
         self.tau_s = self.prior_s
-        self.dead_s = 0.0
-        self.overshoot = 0.0
         self.s0 = self.prior_s
         self.s1 = self.prior_s
         self.s2 = self.prior_s
-        self.d0 = self.d1 = self.d2 = 0.0  # the dead times of the same samples
         self.samples = 0
+        self.windows = 0  # windows that ended (counted or not)
         self.reset()
 
     def reset(self):
-        """Drop the step under way (a turn, a gap, a new engage); the estimate stays."""
-        self.state = 0  # 0 idle, 1 gathering keys, 2 measuring, 3 after 63 %: the overshoot
-        self.t_step = 0
-        self.t_quiet = None  # when the locked course last moved
-        self.c_prev = None  # the locked course last seen
-        self.c0 = 0.0  # before the step
-        self.c1 = 0.0  # after it
-        self.h0 = 0.0
-        self.t28_s = 0.0
-        self.t63_s = 0.0
-        self.peak = 0.0
+        """Drop the window under way (a turn, a gap, a new engage); the estimate stays."""
+        self.t_prev = None
+        self.t_win_s = -1.0  # < 0: no window open
+
+    def _open(self, locked_deg, heading_deg):
+        self.h0 = heading_deg
+        self.c0 = locked_deg
+        self.t_win_s = 0.0
+        self.y_max = 0.0
+        self.u_max = 0.0
+        for k in range(N_MODELS):
+            self.h_k[k] = 0.0
+            self.e_k[k] = 0.0
+            self.g_k[k] = 0.0
+            self.a_k[k] = 0.0
+            self.b_k[k] = 0.0
+            self.c_k[k] = 0.0
+            self.d_k[k] = 0.0
 
     def step(self, t_ms, locked_deg, heading_deg, ok):
-        """One control step. Returns True when the estimate (tau_s, dead_s) changed."""
+        """One control step. Returns True when the estimate tau_s changed."""
         if not ok or locked_deg is None or heading_deg is None:
             self.reset()
             return False
-        moved = self.c_prev is not None and wrap180(locked_deg - self.c_prev) != 0.0
-        changed = False
-        st = self.state
-        if st == 2 or st == 3:
-            d = wrap180(locked_deg - self.c1)
-            tol = 0.25 * abs(wrap180(self.c1 - self.c0))
-            if st == 2 and (d > tol or -d > tol) and (d > 1.0 or d < -1.0):
-                st = 0  # a new command before 63 %: not a clean step
-            elif st == 3 and moved:
-                st = 0  # the next step: the overshoot is what it was
-            else:
-                el_s = ticks_diff(t_ms, self.t_step) / 1000.0
-                p = wrap180(heading_deg - self.h0) / wrap180(self.c1 - self.c0)
-                if st == 2:
-                    if self.t28_s == 0.0 and p >= 0.283:
-                        self.t28_s = el_s
-                    if p >= 0.632:
-                        self.t63_s = el_s
-                        self.peak = p
-                        changed = self._sample()
-                        st = 3
-                    elif el_s * 1000.0 > self.timeout_ms:
-                        st = 0
-                else:
-                    if p > self.peak:
-                        self.peak = p
-                    if el_s > 3.0 * self.t63_s:
-                        self.overshoot = self.peak - 1.0 if self.peak > 1.0 else 0.0
-                        st = 0
-        if st == 1:
-            if moved:
-                self.c1 = locked_deg
-            s = wrap180(self.c1 - self.c0)
-            if s != 0.0:
-                p = wrap180(heading_deg - self.h0) / s
-                el_s = ticks_diff(t_ms, self.t_step) / 1000.0
-                if self.t28_s == 0.0 and p >= 0.283:
-                    self.t28_s = el_s
-                if self.t63_s == 0.0 and p >= 0.632:
-                    self.t63_s = el_s
-            if ticks_diff(t_ms, self.t_step) > self.gather_ms:
-                st = 2 if (s >= self.step_min_deg or -s >= self.step_min_deg) else 0
-                if st == 2 and self.t63_s > 0.0:  # a fast pilot: 63 % while the keys landed
-                    self.peak = 0.632
-                    changed = self._sample()
-                    st = 3
-        if st == 0 and moved:
-            quiet = self.t_quiet is not None and ticks_diff(t_ms, self.t_quiet) >= self.quiet_ms
-            if quiet:
-                st = 1
-                self.t_step = t_ms
-                self.c0 = self.c_prev
-                self.c1 = locked_deg
-                self.h0 = heading_deg
-                self.t28_s = 0.0
-                self.t63_s = 0.0
-        if moved or self.c_prev is None:
-            self.t_quiet = t_ms
-        self.c_prev = locked_deg
-        self.state = st
+        if self.t_prev is None:
+            self.t_prev = t_ms
+            self._open(locked_deg, heading_deg)
+            return False
+        dt_s = ticks_diff(t_ms, self.t_prev) / 1000.0
+        self.t_prev = t_ms
+        if dt_s <= 0.0 or dt_s > 2.0:
+            self._open(locked_deg, heading_deg)  # a hole in the feed: start again
+            return False
+        u = wrap180(locked_deg - self.c0)
+        y = wrap180(heading_deg - self.h0)
+        ay = y if y >= 0.0 else -y
+        if ay > self.y_max:
+            self.y_max = ay
+        au = u if u >= 0.0 else -u
+        if au > self.u_max:
+            self.u_max = au
+        for k in range(N_MODELS):
+            f = dt_s / (self.tau_k[k] + dt_s)
+            h = self.h_k[k] + (u - self.h_k[k]) * f
+            g = self.g_k[k] + (1.0 - self.g_k[k]) * f
+            self.h_k[k] = h
+            self.g_k[k] = g
+            r = y - h
+            self.e_k[k] += r * r * dt_s
+            self.a_k[k] += r * g * dt_s
+            self.b_k[k] += g * g * dt_s
+            self.c_k[k] += r * dt_s
+            self.d_k[k] += g * dt_s
+        self.t_win_s += dt_s
+        if self.t_win_s < self.window_s:
+            return False
+        changed = self._close()
+        self._open(locked_deg, heading_deg)
         return changed
 
-    def _sample(self):
-        t63 = self.t63_s
-        t_s = 1.5 * (t63 - self.t28_s)
-        if t_s > t63:
-            t_s = t63
+    def _close(self):
+        self.windows += 1
+        if self.y_max < self.step_min_deg or self.u_max > self.step_max_deg:
+            return False
+        w = self.t_win_s
+        for k in range(N_MODELS):
+            # the residual after the best constant offset of the course (regressor g) and of the
+            # heading (regressor 1: the noise on the start, the dead time's carry-over)
+            a, b, c, d = self.a_k[k], self.b_k[k], self.c_k[k], self.d_k[k]
+            det = w * b - d * d
+            if det > 1e-6 * w * b:
+                # least squares of r on (1, g): explained = [c a] M^-1 [c a]^T, M = [[w d] [d b]]
+                self.e_k[k] -= (b * c * c - 2.0 * d * a * c + w * a * a) / det
+        best = 0
+        for k in range(1, N_MODELS):
+            if self.e_k[k] < self.e_k[best]:
+                best = k
+        rms = math.sqrt(self.e_k[best] / self.t_win_s)
+        if rms > self.fit_max * self.y_max:
+            return False
+        x = 0.0  # the parabola's vertex, in steps of the grid from the best
+        if 0 < best < N_MODELS - 1:
+            a = self.e_k[best - 1]
+            b = self.e_k[best]
+            c = self.e_k[best + 1]
+            d = a - 2.0 * b + c
+            if d > 0.0:
+                x = 0.5 * (a - c) / d
+        sample = self.tau_k[best] * math.exp(x * self.log_r)
         self.s0 = self.s1
         self.s1 = self.s2
-        self.s2 = t63
-        self.d0 = self.d1
-        self.d1 = self.d2
-        self.d2 = t63 - t_s
+        self.s2 = sample
         self.samples += 1
-        med = _median3(self.s0, self.s1, self.s2)
+        med = max(min(self.s0, self.s1), min(max(self.s0, self.s1), self.s2))
         med = self.lo_s if med < self.lo_s else (self.hi_s if med > self.hi_s else med)
         old = self.tau_s
         self.tau_s = med
-        self.dead_s = _median3(self.d0, self.d1, self.d2)
         return med != old
-
-
-def _median3(a, b, c):
-    return max(min(a, b), min(max(a, b), c))
