@@ -175,7 +175,7 @@ class LosLaw:
         "adapt_swing_m": (1.0, "m", 0.2, 10.0, "swing watch: a half cycle counts from this amplitude of the path xte"),
         "adapt_keep": (0.6, "1", 0.1, 1.0, "swing watch: each half cycle keeps at least this share of the one before"),
         "adapt_split": (3.5, "1", 1.0, 20.0, "swing watch: period / (lookahead / U) below which the lead is cut"),
-        "tau_sched": (1.0, "1", 0.0, 1.0, "lookahead and lead from the measured heading response (1 = on)"),
+        "tau_sched": (0.0, "1", 0.0, 1.0, "lookahead and lead from the measured heading response (1 = on; off: measured no gain)"),
         "tau_zeta": (0.7, "1", 0.3, 1.5, "damping ratio kept at the measured heading response"),
         "tau_max_s": (20.0, "s", 2.0, 60.0, "bound of the measured heading response"),
     }

@@ -2,16 +2,18 @@
 
 The law's locked course moves with nearly every epoch (1 deg keys, the lead term), so clean steps
 from a quiet course are rare (none on the nominal boat's straights): the estimate fits a first-order
-response to whatever the course did. A bank of N first-order models, time constants lo_s..hi_s
+response to whatever the course did. A bank of N first-order models, time constants lo_s..2 hi_s
 spaced by a constant ratio, each driven by the locked course and started at the measured heading
 at the start of a window of window_s; each model's squared error against the GNSS heading is summed
 over the window. The pilot's deadband, weather helm and its compass offset shift the heading
 against the locked course without a turn: each model's residual is taken after the best constant
 offset of the course and of the heading over the window (least squares on five sums a model).
-A window counts when the heading moved at least step_min_deg in it (else nothing
-tells a fast pilot from a slow one), the course no more than step_max_deg (a larger step saturates
-the ram: the engage's approach, a rate limit, not the linear lag the law's margin is about), and the best model explains it (residual RMS at most fit_max of
-the heading's largest move); its sample is the best time constant, refined by a parabola in log tau
+A window counts when the heading moved at least step_min_deg in it and the course spanned as much
+(else nothing tells a fast pilot from a slow one, and a heading moved by waves with the course
+still reads as a slow pilot), the course no more than step_max_deg, not the first window after a
+reset (the engage: the pilot's own start-up, seconds without a response), and the best model explains it (residual RMS at most fit_max of
+the heading's largest move, at most half the slowest model's squared error, not the slowest
+itself); its sample is the best time constant, refined by a parabola in log tau
 through its neighbours. The estimate is the median of the last three samples, the slots starting
 at the prior (two samples that agree move it), bounded to lo_s..hi_s. A time constant fitted this
 way includes the dead time (keys, reply, compass lag): the lag the guidance loop sees.
@@ -23,12 +25,12 @@ import math
 
 from trackpilot.compat import ticks_diff, wrap180
 
-N_MODELS = 8
+N_MODELS = 9
 
 
 class TauEstimate:
     def __init__(self, prior_s, lo_s=1.0, hi_s=20.0, step_min_deg=4.0, window_s=20.0, fit_max=0.35,
-                 step_max_deg=15.0):
+                 step_max_deg=45.0):
         self.prior_s = prior_s
         self.lo_s = lo_s
         self.hi_s = hi_s
@@ -48,7 +50,8 @@ class TauEstimate:
 
     def restart(self):
         """Back to the prior (a power cycle or a new configuration)."""
-        r = (self.hi_s / self.lo_s) ** (1.0 / (N_MODELS - 1))
+        r = (2.0 * self.hi_s / self.lo_s) ** (1.0 / (N_MODELS - 1))  # up to 2 hi_s: a slow
+        # pilot is told from one that does not respond at all (the slowest model)
         for k in range(N_MODELS):
             self.tau_k[k] = self.lo_s * r ** k
         self.log_r = math.log(r)
@@ -64,6 +67,7 @@ class TauEstimate:
         """Drop the window under way (a turn, a gap, a new engage); the estimate stays."""
         self.t_prev = None
         self.t_win_s = -1.0  # < 0: no window open
+        self.skip = True  # the first window after a reset: the engage (the pilot's own start-up), a turn's end
 
     def _open(self, locked_deg, heading_deg):
         self.h0 = heading_deg
@@ -71,6 +75,8 @@ class TauEstimate:
         self.t_win_s = 0.0
         self.y_max = 0.0
         self.u_max = 0.0
+        self.u_lo = 0.0
+        self.u_hi = 0.0
         for k in range(N_MODELS):
             self.h_k[k] = 0.0
             self.e_k[k] = 0.0
@@ -102,6 +108,10 @@ class TauEstimate:
         au = u if u >= 0.0 else -u
         if au > self.u_max:
             self.u_max = au
+        if u > self.u_hi:
+            self.u_hi = u
+        if u < self.u_lo:
+            self.u_lo = u
         for k in range(N_MODELS):
             f = dt_s / (self.tau_k[k] + dt_s)
             h = self.h_k[k] + (u - self.h_k[k]) * f
@@ -123,7 +133,11 @@ class TauEstimate:
 
     def _close(self):
         self.windows += 1
-        if self.y_max < self.step_min_deg or self.u_max > self.step_max_deg:
+        if self.skip:
+            self.skip = False
+            return False
+        if (self.y_max < self.step_min_deg or self.u_max > self.step_max_deg
+                or self.u_hi - self.u_lo < self.step_min_deg):
             return False
         w = self.t_win_s
         for k in range(N_MODELS):
@@ -139,8 +153,10 @@ class TauEstimate:
             if self.e_k[k] < self.e_k[best]:
                 best = k
         rms = math.sqrt(self.e_k[best] / self.t_win_s)
-        if rms > self.fit_max * self.y_max:
-            return False
+        if (rms > self.fit_max * self.y_max or best == N_MODELS - 1
+                or self.e_k[best] > 0.5 * self.e_k[N_MODELS - 1]):
+            return False  # the slowest model (nearly no response) does about as well: the heading
+            # moved by the waves, not by the course
         x = 0.0  # the parabola's vertex, in steps of the grid from the best
         if 0 < best < N_MODELS - 1:
             a = self.e_k[best - 1]
