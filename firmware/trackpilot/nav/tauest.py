@@ -29,7 +29,7 @@ N_MODELS = 9
 
 
 class TauEstimate:
-    def __init__(self, prior_s, lo_s=1.0, hi_s=20.0, step_min_deg=4.0, window_s=20.0, fit_max=0.35,
+    def __init__(self, prior_s, lo_s=1.0, hi_s=20.0, step_min_deg=4.0, window_s=10.0, fit_max=0.35,
                  step_max_deg=45.0):
         self.prior_s = prior_s
         self.lo_s = lo_s
