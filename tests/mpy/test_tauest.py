@@ -94,3 +94,37 @@ def _waves(est):
         h += (c - h) * 0.2 / 3.0
         est.step(k * 200, c % 360.0, (h + 4.0 * math.sin(2 * math.pi * ts / 30.0)) % 360.0, True)
     return est
+
+
+def _law_feed(law, tau_s):
+    law._on_straight = True  # as LosLaw.step leaves it on a straight
+    notes = []
+    h = 355.0
+    for k in range(2400):
+        ts = k * 0.2
+        c = 355.0 + _course(ts)
+        h += (c - h) * (1.0 - math.exp(-0.2 / tau_s))
+        note = law.heading_response(k * 200, c % 360.0, h % 360.0, True)
+        if note:
+            notes.append(note)
+    return notes
+
+
+def test_los_schedules_the_lookahead_from_the_estimate():
+    from trackpilot.nav.guidance import make_law
+
+    # a slow pilot (12 s): T_la >= (2 x 0.7 / 1.5)^2 x 12 s = 10.5 s against the configured 6 s
+    law = make_law("los", {"tau_sched": 1.0})
+    notes = _law_feed(law, 12.0)
+    t.true(abs(law.tau.tau_s - 12.0) <= 1.8, law.tau.tau_s)
+    t.near(law.tau_scale, (1.4 / 1.5) ** 2 * law.tau.tau_s / 6.0, 0.01)
+    t.true(notes and "lookahead x1." in notes[-1], notes)
+    # a fast one (2 s): never below the configured lookahead
+    law = make_law("los", {"tau_sched": 1.0})
+    _law_feed(law, 2.0)
+    t.eq(law.tau_scale, 1.0)
+    # off (the default): measured and logged, not scheduled
+    law = make_law("los")
+    notes = _law_feed(law, 12.0)
+    t.eq(law.tau_scale, 1.0)
+    t.true(notes and notes[-1].endswith("(not scheduled)"), notes)

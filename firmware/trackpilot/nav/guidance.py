@@ -175,7 +175,7 @@ class LosLaw:
         "adapt_swing_m": (1.0, "m", 0.2, 10.0, "swing watch: a half cycle counts from this amplitude of the path xte"),
         "adapt_keep": (0.6, "1", 0.1, 1.0, "swing watch: each half cycle keeps at least this share of the one before"),
         "adapt_split": (3.5, "1", 1.0, 20.0, "swing watch: period / (lookahead / U) below which the lead is cut"),
-        "tau_sched": (1.0, "1", 0.0, 1.0, "lookahead and lead from the measured heading response (1 = on)"),
+        "tau_sched": (0.0, "1", 0.0, 1.0, "lookahead and lead from the measured heading response (1 = on; measured no gain)"),
         "tau_zeta": (0.7, "1", 0.3, 1.5, "damping ratio kept at the measured heading response"),
         "tau_max_s": (20.0, "s", 2.0, 60.0, "bound of the measured heading response"),
         "tau_window_s": (10.0, "s", 5.0, 120.0, "heading response: length of one fitting window"),
@@ -435,8 +435,8 @@ class LosLaw:
             return ""  # logged when the scale or the estimate (by 10 %) changes
         self._tau_logged_s = tau_s
         t = self.tau
-        return "heading response %.1f s (fits %.1f %.1f %.1f s, %d): lookahead x%.2f" % (
-            tau_s, t.s0, t.s1, t.s2, t.samples, self.tau_scale)
+        return "heading response %.1f s (fits %.1f %.1f %.1f s, %d): lookahead x%.2f%s" % (
+            tau_s, t.s0, t.s1, t.s2, t.samples, self.tau_scale, "" if self.tau_sched > 0.0 else " (not scheduled)")
 
     def pilot_hunts(self):
         """The pilot's own loop hunts (core/pilotwatch.py): steer it gently. Returns a note or ""."""
