@@ -407,13 +407,14 @@ class Autopilot:
         if epoch:
             self.update_compass_offset(t_ms)
             self.watch_pilot(t_ms)
-            if out is not None and hasattr(self.law, "heading_response"):
-                # the closed heading response from the pilot's key steps (nav/tauest.py)
+            if hasattr(self.law, "heading_response"):
+                # the closed heading response, fitted to the locked course (nav/tauest.py);
+                # any epoch not steering on good GNSS drops the fitting window
                 p = self.pilot
                 note = self.law.heading_response(
                     t_ms, p.course_deg, fix.heading_deg,
-                    ok and guiding and mm.pilot == M.PILOT_STEER and p.commanding()
-                    and fix.heading_valid and p.status_fresh(t_ms))
+                    out is not None and ok and guiding and mm.pilot == M.PILOT_STEER
+                    and p.commanding() and fix.heading_valid and p.status_fresh(t_ms))
                 if note:
                     self.event("GUIDE", note)
         fix = nav
