@@ -407,6 +407,16 @@ class Autopilot:
         if epoch:
             self.update_compass_offset(t_ms)
             self.watch_pilot(t_ms)
+            if hasattr(self.law, "heading_response"):
+                # the closed heading response, fitted to the locked course (nav/tauest.py);
+                # any epoch not steering on good GNSS drops the fitting window
+                p = self.pilot
+                note = self.law.heading_response(
+                    t_ms, p.course_deg, fix.heading_deg,
+                    out is not None and ok and guiding and mm.pilot == M.PILOT_STEER
+                    and p.commanding() and fix.heading_valid and p.status_fresh(t_ms))
+                if note:
+                    self.event("GUIDE", note)
         fix = nav
         if mm.pilot == M.PILOT_STEER and out is not None and fix.heading_valid and self.pilot.commanding():
             # in the pilot's own compass frame: cancels its compass error (seed report 4.7)

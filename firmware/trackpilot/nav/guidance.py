@@ -23,6 +23,7 @@ import math
 
 from trackpilot.compat import wrap180, wrap360
 from trackpilot.nav.swing import SwingWatch
+from trackpilot.nav.tauest import TauEstimate
 
 _RAD = math.pi / 180.0
 _HALF_PI = math.pi * 0.5
@@ -176,6 +177,10 @@ class LosLaw:
         "adapt_swing_m": (1.0, "m", 0.2, 10.0, "swing watch: a half cycle counts from this amplitude of the path xte"),
         "adapt_keep": (0.6, "1", 0.1, 1.0, "swing watch: each half cycle keeps at least this share of the one before"),
         "adapt_split": (3.5, "1", 1.0, 20.0, "swing watch: period / (lookahead / U) below which the lead is cut"),
+        "tau_sched": (0.0, "1", 0.0, 1.0, "lookahead and lead from the measured heading response (1 = on; measured no gain)"),
+        "tau_zeta": (0.7, "1", 0.3, 1.5, "damping ratio kept at the measured heading response"),
+        "tau_max_s": (20.0, "s", 2.0, 60.0, "bound of the measured heading response"),
+        "tau_window_s": (10.0, "s", 5.0, 120.0, "heading response: length of one fitting window"),
     }
 
     def __init__(self, **params):
@@ -189,11 +194,21 @@ class LosLaw:
         self.la_scale = 1.0
         self.lead_scale = 1.0
         self.clip_scale = 1.0
+        # the closed heading response measured from key steps (nav/tauest.py), also the boat's
+        self.tau = TauEstimate(self.heading_tc_s, hi_s=self.tau_max_s, window_s=self.tau_window_s)
+        self.tau_scale = 1.0
+        self._tau_logged_s = 0.0
+        self._on_straight = False
         self.reset()
 
     def configure(self, params):
         _configure(self, params)
         self._track = None  # re-plan the corners
+        self.tau.prior_s = self.heading_tc_s
+        self.tau.hi_s = self.tau_max_s
+        self.tau.window_s = self.tau_window_s
+        self.tau.restart()
+        self.tau_scale = 1.0
 
     def reset(self):
         self.crab_f_deg = 0.0
@@ -201,6 +216,7 @@ class LosLaw:
         self.beta_hat_rad = 0.0
         self._intercept_clamped = False
         self.swing.reset()
+        self.tau.reset()
         self.out.valid = False
         self.out.clipped = False
 
@@ -357,11 +373,12 @@ class LosLaw:
             else:
                 self.crab_f_deg += (c - self.crab_f_deg) * (dt_s / (self.crab_tc_s + dt_s))
         la = _clip(self.lookahead_gain * u_eff * self.heading_tc_s, self.lookahead_min_m,
-                   self.lookahead_max_m) * self.la_scale
+                   self.lookahead_max_m) * self.tau_scale * self.la_scale
         tan_rad, y, prev_rad, arc_r = self._path(prog, u_eff * self.preview_s)
         out.note = ""
+        self._on_straight = arc_r == 0.0 and -0.035 < prev_rad < 0.035 and not prog.finished
         if self.adapt_max_scale > 1.0:
-            self._watch(dt_s, y, la / self.la_scale / u_eff, arc_r == 0.0 and -0.035 < prev_rad < 0.035 and not prog.finished)
+            self._watch(dt_s, y, la / self.la_scale / u_eff, self._on_straight)
         # adaptive crab (ALOS), anti-windup: frozen while clipped (the command or the approach
         # angle), far off or slow
         # held through corners: a turn's lag is not a steady crab, and what it learnt there
@@ -376,7 +393,7 @@ class LosLaw:
         # damping: the xte predicted xte_lead_s ahead from the course made good (heading + the
         # filtered crab: quieter than the raw COG), so the heading loop's lag cannot ring
         y_lead = y
-        t_lead_s = self.xte_lead_s * self.lead_scale * self.la_scale  # T_d / T_la kept as set
+        t_lead_s = self.xte_lead_s * self.lead_scale * self.la_scale * self.tau_scale  # T_d / T_la kept
         if t_lead_s > 0.0 and self.crab_ok:
             chi_rad = wrap180(fix.heading_deg + self.crab_f_deg - prog.leg_bearing_deg) * _RAD - tan_rad
             y_lead = y + t_lead_s * u * math.sin(chi_rad)
@@ -401,6 +418,30 @@ class LosLaw:
         out.arc_radius_m = arc_r
         out.valid = True
         return out
+
+    def heading_response(self, t_ms, locked_deg, heading_deg, ok):
+        """Feed the heading response estimate (the pilot's locked course as it reports it, the true
+        heading; ok: steering, GNSS good) and schedule the lookahead from it: T_la at least what
+        keeps zeta = 0.5 (1 + T_d / T_la) sqrt(T_la / tau) >= tau_zeta at the estimate, with
+        T_d / T_la as set (0.5), never below the configured one (docs/NAVIGATION.md "Timing from
+        the measured heading response"). Only on a straight. Returns a note or ""."""
+        if not self.tau.step(t_ms, locked_deg, heading_deg, ok and self._on_straight):
+            return ""
+        tau_s = self.tau.tau_s
+        la_s = self.lookahead_gain * self.heading_tc_s  # the configured T_la (clamps aside)
+        r = self.xte_lead_s / la_s
+        need = 2.0 * self.tau_zeta / (1.0 + r)
+        need_la_s = need * need * tau_s
+        old = self.tau_scale
+        if self.tau_sched > 0.0:
+            self.tau_scale = need_la_s / la_s if need_la_s > la_s else 1.0
+        d = tau_s - self._tau_logged_s
+        if self.tau_scale == old and -0.1 * tau_s < d < 0.1 * tau_s:
+            return ""  # logged when the scale or the estimate (by 10 %) changes
+        self._tau_logged_s = tau_s
+        t = self.tau
+        return "heading response %.1f s (fits %.1f %.1f %.1f s, %d): lookahead x%.2f%s" % (
+            tau_s, t.s0, t.s1, t.s2, t.samples, self.tau_scale, "" if self.tau_sched > 0.0 else " (not scheduled)")
 
     def pilot_hunts(self):
         """The pilot's own loop hunts (core/pilotwatch.py): steer it gently. Returns a note or ""."""
