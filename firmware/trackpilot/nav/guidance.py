@@ -23,7 +23,6 @@ import math
 
 from trackpilot.compat import wrap180, wrap360
 from trackpilot.nav.swing import SwingWatch
-from trackpilot.nav.tauest import TauEstimate
 
 _RAD = math.pi / 180.0
 _HALF_PI = math.pi * 0.5
@@ -194,8 +193,9 @@ class LosLaw:
         self.la_scale = 1.0
         self.lead_scale = 1.0
         self.clip_scale = 1.0
-        # the closed heading response measured from key steps (nav/tauest.py), also the boat's
-        self.tau = TauEstimate(self.heading_tc_s, hi_s=self.tau_max_s, window_s=self.tau_window_s)
+        # the closed heading response fitted to the locked course (nav/tauest.py): made only when
+        # tau_sched is on (off by default: no measured gain, and it costs the ESP32's heap)
+        self.tau = None
         self.tau_scale = 1.0
         self._tau_logged_s = 0.0
         self._on_straight = False
@@ -204,10 +204,11 @@ class LosLaw:
     def configure(self, params):
         _configure(self, params)
         self._track = None  # re-plan the corners
-        self.tau.prior_s = self.heading_tc_s
-        self.tau.hi_s = self.tau_max_s
-        self.tau.window_s = self.tau_window_s
-        self.tau.restart()
+        if self.tau is not None:
+            self.tau.prior_s = self.heading_tc_s
+            self.tau.hi_s = self.tau_max_s
+            self.tau.window_s = self.tau_window_s
+            self.tau.restart()
         self.tau_scale = 1.0
 
     def reset(self):
@@ -216,7 +217,8 @@ class LosLaw:
         self.beta_hat_rad = 0.0
         self._intercept_clamped = False
         self.swing.reset()
-        self.tau.reset()
+        if self.tau is not None:
+            self.tau.reset()
         self.out.valid = False
         self.out.clipped = False
 
@@ -424,7 +426,14 @@ class LosLaw:
         heading; ok: steering, GNSS good) and schedule the lookahead from it: T_la at least what
         keeps zeta = 0.5 (1 + T_d / T_la) sqrt(T_la / tau) >= tau_zeta at the estimate, with
         T_d / T_la as set (0.5), never below the configured one (docs/NAVIGATION.md "Timing from
-        the measured heading response"). Only on a straight. Returns a note or ""."""
+        the measured heading response"). Only on a straight, only with tau_sched on. Returns a note
+        or ""."""
+        if self.tau_sched <= 0.0:
+            return ""
+        if self.tau is None:
+            from trackpilot.nav.tauest import TauEstimate
+
+            self.tau = TauEstimate(self.heading_tc_s, hi_s=self.tau_max_s, window_s=self.tau_window_s)
         if not self.tau.step(t_ms, locked_deg, heading_deg, ok and self._on_straight):
             return ""
         tau_s = self.tau.tau_s
@@ -433,15 +442,14 @@ class LosLaw:
         need = 2.0 * self.tau_zeta / (1.0 + r)
         need_la_s = need * need * tau_s
         old = self.tau_scale
-        if self.tau_sched > 0.0:
-            self.tau_scale = need_la_s / la_s if need_la_s > la_s else 1.0
+        self.tau_scale = need_la_s / la_s if need_la_s > la_s else 1.0
         d = tau_s - self._tau_logged_s
         if self.tau_scale == old and -0.1 * tau_s < d < 0.1 * tau_s:
             return ""  # logged when the scale or the estimate (by 10 %) changes
         self._tau_logged_s = tau_s
         t = self.tau
-        return "heading response %.1f s (fits %.1f %.1f %.1f s, %d): lookahead x%.2f%s" % (
-            tau_s, t.s0, t.s1, t.s2, t.samples, self.tau_scale, "" if self.tau_sched > 0.0 else " (not scheduled)")
+        return "heading response %.1f s (fits %.1f %.1f %.1f s, %d): lookahead x%.2f" % (
+            tau_s, t.s0, t.s1, t.s2, t.samples, self.tau_scale)
 
     def pilot_hunts(self):
         """The pilot's own loop hunts (core/pilotwatch.py): steer it gently. Returns a note or ""."""
