@@ -189,7 +189,8 @@ class LosLaw:
         self._track = None
         # the swing watch on the path xte (docs/NAVIGATION.md "Adapting to the boat"): its
         # scales belong to the boat, so they outlive reset() (a new engage, the same boat)
-        self.swing = SwingWatch(0.2, 0.5, 2, min_half_s=2.0, max_half_s=60.0)
+        self.swing = SwingWatch(0.2, self.adapt_swing_m, 2, min_half_s=2.0, max_half_s=60.0,
+                                keep_ratio=self.adapt_keep)
         self.la_scale = 1.0
         self.lead_scale = 1.0
         self.clip_scale = 1.0
@@ -204,6 +205,8 @@ class LosLaw:
     def configure(self, params):
         _configure(self, params)
         self._track = None  # re-plan the corners
+        self.swing.amp_min = self.adapt_swing_m
+        self.swing.keep_ratio = self.adapt_keep
         if self.tau is not None:
             self.tau.prior_s = self.heading_tc_s
             self.tau.hi_s = self.tau_max_s
@@ -461,7 +464,8 @@ class LosLaw:
 
     def _watch(self, dt_s, y, t_la_s, straight):
         """The swing watch: the path xte keeps swinging (>= adapt_swing_m, two half cycles in a row
-        that each keep adapt_keep of the one before, regular period) on a straight; t_la_s: the unscaled lookahead / U.
+        that each keep adapt_keep of the one before, regular period) on a straight; t_la_s: the
+        unscaled lookahead / U.
         A short period (< adapt_split x t_la_s) is the lead's heading feedback ringing with the
         pilot's own resonance: the lead goes off. A long one (or a short one with the lead off) is
         the outer loop too fast for this pilot, or its ram saturating on large course steps:
@@ -470,8 +474,6 @@ class LosLaw:
         if not straight:
             self.swing.reset()
             return
-        self.swing.amp_min = self.adapt_swing_m  # as configured (configure() may change them)
-        self.swing.keep_ratio = self.adapt_keep
         if not self.swing.step(dt_s, y):
             return
         period_s = 2.0 * self.swing.first_s
