@@ -120,27 +120,26 @@ def test_script_marks_each_manoeuvre():
         true(want in text, want)
 
 
+def _sail_until_action(tr, speed_mps):
+    """Start tr and step it every 200 ms at speed_mps, on the spot, until it acts: (t_ms, action)."""
+    tr.start(0, 0.0)
+    act = None
+    t = 0
+    while act is None and t < 100000:
+        t += 200
+        act = tr.step(t, 0.0, speed_mps, 0.0, 0.0, 0.0)
+    return t, act
+
+
 def test_limits_abort_the_script():
     tr = T.Trial({"max_distance_m": 100.0})
     tr.start(0, 0.0)
     eq(tr.step(200, 0.0, 2.0, 150.0, 0.0, 0.0)[0], "abort")
     true(not tr.active)
-    tr = T.Trial({"max_duration_s": 60})
-    tr.start(0, 0.0)
-    act = None
-    t = 0
-    while act is None and t < 100000:
-        t += 200
-        act = tr.step(t, 0.0, 2.0, 0.0, 0.0, 0.0)
+    t, act = _sail_until_action(T.Trial({"max_duration_s": 60}), 2.0)
     eq(act[0], "abort")
     true("longer than 60" in act[1], act)
-    tr = T.Trial({"min_speed_mps": 0.5})
-    tr.start(0, 0.0)
-    act = None
-    t = 0
-    while act is None and t < 100000:
-        t += 200
-        act = tr.step(t, 0.0, 0.2, 0.0, 0.0, 0.0)
+    t, act = _sail_until_action(T.Trial({"min_speed_mps": 0.5}), 0.2)
     eq(act[0], "abort")
     true("speed" in act[1], act)
     true(t < 25000, t)
