@@ -118,6 +118,13 @@ class Autopilot:
         from trackpilot.core.pilotwatch import PilotWatch
 
         self.pilot_watch = PilotWatch()  # does the pilot's own loop hunt?
+        from trackpilot.core.pilotdb import DeadbandComp
+
+        pc = cfg["pilot"]
+        self.pilot_db = DeadbandComp(prior_deg=pc["deadband_deg"], frac=pc["deadband_comp_frac"],
+                                     hys_deg=pc["deadband_comp_hys_deg"],
+                                     round_hys_deg=pc["course_round_hys_deg"],
+                                     compensate=pc["deadband_comp_frac"] > 0.0)
         self._watch_status_ms = None
         self.refusal = ""
         self.corr_age_s = None  # age of the last RTK correction frame (the shell's reading)
@@ -423,10 +430,18 @@ class Autopilot:
             # the seed baseline keeps its pinned form: course = pilot compass + relative setpoint
             if self.compass_offset_deg is not None and not self.seed_baseline:
                 target = out.heading_cmd_deg + self.compass_offset_deg
+                # the pilot's deadband (core/pilotdb.py): only on a los straight in AUTO
+                target, note = self.pilot_db.course(
+                    t_ms, target, fix.heading_deg + self.compass_offset_deg, self.pilot.course_deg,
+                    mm.mode == M.AUTO and getattr(self.law, "_on_straight", False))
+                if note:
+                    self.event("PILOT", note)
                 self.relative_cmd_deg = wrap180(target - self.pilot.heading_deg)
             else:
                 self.relative_cmd_deg = wrap180(out.heading_cmd_deg - fix.heading_deg)
             self.pilot.steer_to(self.relative_cmd_deg, t_ms)
+        else:
+            self.pilot_db.reset()
         if mm.mode == M.TRIAL and epoch:
             self.trial_epoch(t_ms)
         # the motor

@@ -109,7 +109,9 @@ class ST2000Sim:
             if self.hang == "steer":
                 return self.rudder_deg  # keeps talking, the ram stops tracking
             db = p["deadband_deg"]
-            e = 0.0 if abs(err) <= db else err - math.copysign(db, err)
+            # shifted (default): the error beyond the deadband; plain: the whole error once outside
+            shift = db if p.get("deadband_shift", 1) else 0.0
+            e = 0.0 if abs(err) <= db else err - math.copysign(shift, err)
             self.trim_deg += p["ki_rudder_per_degs"] * e * dt_s
             lim = p["trim_limit_deg"]
             self.trim_deg = max(-lim, min(lim, self.trim_deg))
