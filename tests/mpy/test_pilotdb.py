@@ -71,7 +71,7 @@ def test_no_chatter_on_a_steady_heading():
 
 
 def test_whole_degree_course_does_not_dither_at_a_half_degree():
-    comp = DeadbandComp(prior_deg=1.0, frac=0.0)
+    comp = DeadbandComp(prior_deg=1.0, frac=0.0, round_hys_deg=0.25)
     courses = []
     for k in range(500):
         c, _ = comp.course(k * 200, 90.5 + 0.2 * math.sin(k * 1.7), 90.5, 90.0, True)

@@ -26,7 +26,7 @@ from trackpilot.compat import ticks_diff, wrap180
 
 
 class DeadbandComp:
-    def __init__(self, prior_deg=1.0, frac=0.8, hys_deg=1.0, round_hys_deg=0.25, rest_ms=2000,
+    def __init__(self, prior_deg=1.0, frac=0.8, hys_deg=1.0, round_hys_deg=0.0, rest_ms=2000,
                  rest_rate_dps=0.5, up_deg=0.04, down_deg=0.01, max_deg=4.0, log_step_deg=0.25,
                  calm_err_deg=3.0, calm_rate_dps=2.0, e_alpha=0.1, compensate=True):
         self.db_est_deg = float(prior_deg)
