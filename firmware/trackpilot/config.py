@@ -62,11 +62,9 @@ SCHEMA = (
         ("odd_rule", "dotnet", "s", ("dotnet", "knauf"), None),
         ("status_timeout_ms", 3500, "i", 1000, 30000),
         ("deadband_deg", 1, "i", 0, 10),  # the pilot's deadband: the estimate's prior (core/pilotdb.py)
-        # the locked course put this share of the estimated deadband beyond the wanted heading,
-        # on a straight in AUTO under los (docs/NAVIGATION.md "The pilot's deadband"); 0: off
+        # share of the estimate the locked course is put beyond the wanted heading on a los
+        # straight in AUTO (docs/NAVIGATION.md "The pilot's deadband"); 0: off
         ("deadband_comp_frac", 0.8, "f", 0.0, 1.5),
-        ("deadband_comp_hys_deg", 1.0, "f", 0.2, 5.0),  # heading error that turns the side over
-        ("course_round_hys_deg", 0.0, "f", 0.0, 0.49),  # whole-degree course with hysteresis: off (measured: no gain)
         ("compass_offset_tc_s", 20.0, "f", 0.0, 600.0),  # 0: steer by the instantaneous difference
         ("compass_offset_max_rate_dps", 2.0, "f", 0.1, 90.0),  # no offset samples in faster turns
         # hang check (c): error above converge_err_deg for a whole window in which the heading
