@@ -175,6 +175,8 @@ class LosLaw:
         "adapt_clip_min_deg": (10.0, "deg", 1.0, 120.0, "swing watch: the straight's command clip not below this"),
         "adapt_swing_m": (1.0, "m", 0.2, 10.0, "swing watch: a half cycle counts from this amplitude of the path xte"),
         "adapt_keep": (0.6, "1", 0.1, 1.0, "swing watch: each half cycle keeps at least this share of the one before"),
+        "adapt_overshoot": (0.7, "1", 0.0, 5.0, "swing watch: the approach's first overshoot of the path at this share of its start offset acts at once (0 = off)"),
+        "adapt_overshoot_clip_deg": (0.0, "deg", 0.0, 120.0, "the straight's command clip set on such an overshoot (0: halved, as the watch does)"),
         "adapt_split": (3.5, "1", 1.0, 20.0, "swing watch: period / (lookahead / U) below which the lead is cut"),
         "tau_sched": (0.0, "1", 0.0, 1.0, "lookahead and lead from the measured heading response (1 = on; measured no gain)"),
         "tau_zeta": (0.7, "1", 0.3, 1.5, "damping ratio kept at the measured heading response"),
@@ -194,6 +196,7 @@ class LosLaw:
         self.la_scale = 1.0
         self.lead_scale = 1.0
         self.clip_scale = 1.0
+        self._approach = True  # the first approach since the engage: its overshoot is watched
         # the closed heading response fitted to the locked course (nav/tauest.py): made only when
         # tau_sched is on (off by default: no measured gain, and it costs the ESP32's heap)
         self.tau = None
@@ -220,6 +223,7 @@ class LosLaw:
         self.beta_hat_rad = 0.0
         self._intercept_clamped = False
         self.swing.reset()
+        self._approach = True
         if self.tau is not None:
             self.tau.reset()
         self.out.valid = False
@@ -473,8 +477,16 @@ class LosLaw:
         halved (not below adapt_clip_min_deg). Turns do not count and keep the clip as set."""
         if not straight:
             self.swing.reset()
+            self._approach = False  # a turn's exit is not the approach
             return
-        if not self.swing.step(dt_s, y):
+        fired = self.swing.step(dt_s, y)
+        if self._approach and self.swing.closed >= 2:
+            self._approach = False
+        if not fired and self._approach and self.swing.overshoot(self.adapt_overshoot):
+            self._approach = False  # once
+            self._on_overshoot()
+            return
+        if not fired:
             return
         period_s = 2.0 * self.swing.first_s
         clip_min = self.adapt_clip_min_deg / self.clip_deg
@@ -488,6 +500,20 @@ class LosLaw:
         else:
             what = "at its limits"
         self.out.note = "xte swings +-%.1f m, period %.0f s: %s" % (self.swing.amp, period_s, what)
+
+    def _on_overshoot(self):
+        """The approach overshoots the path by adapt_overshoot of where it started: the pilot's
+        heading response is too fast or too strong for the steps the law asks of it (a slow ram at
+        its stops, docs/NAVIGATION.md "Fourth round"): lookahead x2 and the straight's clip cut now,
+        not after two more half cycles."""
+        clip_min = self.adapt_clip_min_deg / self.clip_deg
+        self.la_scale = min(self.adapt_max_scale, self.la_scale * 2.0)
+        if self.adapt_overshoot_clip_deg > 0.0:
+            self.clip_scale = min(self.clip_scale, max(clip_min, self.adapt_overshoot_clip_deg / self.clip_deg))
+        else:
+            self.clip_scale = max(clip_min, self.clip_scale * 0.5)
+        self.out.note = "approach overshoots %.1f m of %.1f m: lookahead x%.2f, clip %.0f deg" % (
+            self.swing.peak, self.swing.prev_amp, self.la_scale, self.clip_deg * self.clip_scale)
 
     def _speed(self, prog, leg):
         """The leg's speed, eased towards the next leg's before the waypoint (surge lag), and
