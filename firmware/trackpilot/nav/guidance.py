@@ -175,10 +175,10 @@ class LosLaw:
         "adapt_clip_min_deg": (10.0, "deg", 1.0, 120.0, "swing watch: the straight's command clip not below this"),
         "adapt_swing_m": (1.0, "m", 0.2, 10.0, "swing watch: a half cycle counts from this amplitude of the path xte"),
         "adapt_keep": (0.6, "1", 0.1, 1.0, "swing watch: each half cycle keeps at least this share of the one before"),
-        "adapt_overshoot": (0.7, "1", 0.0, 5.0, "swing watch: the approach overshoots the path by this share of its start offset ... (0 = off)"),
-        "adapt_stop_s": (3.0, "s", 0.0, 60.0, "... with the pilot's rudder at its stop this long since the crossing: act at once"),
+        "adapt_overshoot": (0.7, "1", 0.0, 5.0, "swing watch: the approach's overshoot / its start offset that acts ... (0 = off)"),
+        "adapt_stop_s": (3.0, "s", 0.0, 60.0, "... with the rudder at its stop this long since the crossing"),
         "adapt_stop_deg": (27.0, "deg", 1.0, 90.0, "the pilot's reported rudder at or beyond this is at its stop"),
-        "adapt_overshoot_clip_deg": (12.0, "deg", 5.0, 120.0, "the straight's command clip set then (lookahead x2 with it)"),
+        "adapt_overshoot_clip_deg": (12.0, "deg", 5.0, 120.0, "the straight's clip set then (and lookahead x2)"),
         "adapt_split": (3.5, "1", 1.0, 20.0, "swing watch: period / (lookahead / U) below which the lead is cut"),
         "tau_sched": (0.0, "1", 0.0, 1.0, "lookahead and lead from the measured heading response (1 = on; measured no gain)"),
         "tau_zeta": (0.7, "1", 0.3, 1.5, "damping ratio kept at the measured heading response"),
@@ -525,8 +525,10 @@ class LosLaw:
         scale = max(self.adapt_clip_min_deg, self.adapt_overshoot_clip_deg) / self.clip_deg
         if scale < self.clip_scale:
             self.clip_scale = scale
-        self.out.note = "approach overshoots %.1f m of %.1f m, rudder at its stop %.0f s: lookahead x%.2f, clip %.0f deg" % (
-            self.swing.peak, self.swing.prev_amp, self._stop_s, self.la_scale, self.clip_deg * self.clip_scale)
+        self.out.note = ("approach overshoots %.1f m of %.1f m, rudder at its stop %.0f s: "
+                         "lookahead x%.2f, clip %.0f deg") % (
+            self.swing.peak, self.swing.prev_amp, self._stop_s, self.la_scale,
+            self.clip_deg * self.clip_scale)
 
     def _speed(self, prog, leg):
         """The leg's speed, eased towards the next leg's before the waypoint (surge lag), and
