@@ -576,7 +576,7 @@ class Autopilot:
         dt_s = 0.5 if self._watch_status_ms is None else ticks_diff(st_ms, self._watch_status_ms) / 1000.0
         self._watch_status_ms = st_ms
         text = self.pilot_watch.step(st_ms, dt_s, p.heading_deg, p.course_deg)
-        if hasattr(self.law, "pilot_rudder"):  # the los law: a ram at its stop in the approach's overshoot
+        if self.mm.mode == M.AUTO and hasattr(self.law, "pilot_rudder"):  # los: a ram at its stop in the approach's overshoot
             self.law.pilot_rudder(dt_s, p.rudder_deg)
         if text:
             self.event("PILOT", text)
