@@ -896,13 +896,14 @@ def uncertainty_problems(fit):
             shown = ("+-%.0f %%" % (100 * v)) if rel_key else ("+-%.2f" % sd)
             limit = ("%.0f %%" % (100 * lim)) if rel_key else ("%.2f" % lim)
             out.append("%s too uncertain (%s, 1 sigma, limit %s): repeat %s" % (name, shown, limit, redo))
-    for t, txt in fit.get("_hunts", ()):
+    hunts = fit["_trial"].get("hunts", ())
+    if hunts:
         # its own loop limit-cycles: every response measured is the pilot's hunting, not the boat's,
         # and no track law steers that boat straight (docs/BENCHMARK_ROBUST.md "pilot alone")
+        t, txt = hunts[0]
+        what = txt.partition("(")[2].rstrip(")") or "its event"  # "heading +-28 deg, period 12 s"
         out.append("the pilot hunted during the trial (%s, %s): lower its response/rudder gain, then "
-                   "sail the whole trial again" % (txt[len("pilot hunts: lower its response/rudder gain "):].strip("() ")
-                                                   or "its event", _manoeuvre_at(fit, t)))
-        break
+                   "sail the whole trial again" % (what, _manoeuvre_at(fit, t)))
     return out
 
 
@@ -946,7 +947,7 @@ def fit_all(d, length_m=5.0, gnss_latency_s=0.075):
     fit = {"trial": {"start_s": tr["t0"], "duration_s": tr["t1"] - tr["t0"],
                      "manoeuvres": [(k, round(t0 - tr["t0"], 1), round(t1 - tr["t0"], 1)) for k, t0, t1, _ in tr["segments"]]},
            "current": cur, "speed_map": sm, "compass": comp, "nomoto": nom, "circle": circ,
-           "steps": steps, "zigzag": zz, "_trial": tr, "_u": u, "_hunts": tr["hunts"]}
+           "steps": steps, "zigzag": zz, "_trial": tr, "_u": u}
     fit["problems"] = uncertainty_problems(fit)
     fit["warnings"] = warnings(fit)
     fit["config"], fit["margins"] = derive_guidance(nom, circ, steps, sm)
