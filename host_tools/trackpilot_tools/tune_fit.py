@@ -76,6 +76,9 @@ def trial_from_decoded(d):
         elif words and words[0] == "end" and open_ is not None:  # the last phase ends with the trial
             segs.append((open_[0], open_[1], t, dict(open_[2])))
             open_ = None
+    # the firmware's pilot watch (core/pilotwatch.py) runs in TRIAL too: a pilot that hunted
+    hunts = [(t, txt) for t, txt in ((e.t_s, e.text) for e in d.events if e.kind == "PILOT")
+             if t0 <= t <= t1 and txt.startswith("pilot hunts")]
     recs = [r for r in d.controls if t0 - 5.0 <= r.t_s <= t1 + 1.0]
     if len(recs) < 100:
         raise TuneError("the trial's control records are missing from the log (%d found)" % len(recs))
@@ -97,7 +100,7 @@ def trial_from_decoded(d):
     }
     if not a["heading_ok"].all():
         a["heading_ok"] &= True  # kept: the fits use only valid samples
-    return {"t0": t0, "t1": t1, "segments": segs, "a": a}
+    return {"t0": t0, "t1": t1, "segments": segs, "a": a, "hunts": hunts}
 
 
 def _kv(words):
@@ -701,8 +704,12 @@ def fit_steps(trial):
         fin = (tt >= t1 - 3.0)
         gain = float(np.mean(y[fin])) if fin.sum() else float("nan")
         over = float(np.max(y[after]) - 1.0)
+        # what is left swinging at the end: the pilot's compass about its locked course, last 10 s
+        tail = _sel(a, t1 - 10.0, t1)
+        swing = float(np.std(wrap180(a["compass"][tail] - a["locked"][tail]))) if tail.sum() > 5 else float("nan")
         rec = {"delta_deg": dlt, "delay_s": d10, "t63_s": d63, "tc_s": d63 - d10, "overshoot": over,
-               "gain": gain, "steady_err_deg": abs(dlt) * (1.0 - gain), "settled": info.get("settled", True)}
+               "gain": gain, "steady_err_deg": abs(dlt) * (1.0 - gain), "settled": info.get("settled", True),
+               "end_swing_sd_deg": swing}
         rpm = int(info.get("rpm", 0))
         by_rpm.setdefault(rpm, []).append(rec)
         curves.append((rpm, dlt, ts[after], y[after]))
@@ -718,6 +725,8 @@ def fit_steps(trial):
             s[k + "_sd"] = float(np.std(v) / math.sqrt(len(v))) if len(v) > 1 else float("nan")
         s["steps"] = len(recs)
         s["unsettled"] = sum(1 for r in recs if not r["settled"])
+        sw = [r["end_swing_sd_deg"] for r in recs if not r["settled"] and math.isfinite(r["end_swing_sd_deg"])]
+        s["unsettled_swing_sd_deg"] = float(np.mean(sw)) if sw else float("nan")
         out[rpm] = s
     return {"by_rpm": out, "_plot": curves}
 
@@ -872,6 +881,11 @@ UNCERTAINTY_LIMITS = (
 )
 
 
+# the heading's spread about the locked course at the end of an unsettled step above which the
+# report points at the pilot's own gain (a pilot that holds keeps it near its deadband, 1-2 deg)
+HUNT_HINT_SD_DEG = 3.0
+
+
 def uncertainty_problems(fit):
     """Fits too uncertain to use, each with the manoeuvre to sail again."""
     out = []
@@ -882,7 +896,24 @@ def uncertainty_problems(fit):
             shown = ("+-%.0f %%" % (100 * v)) if rel_key else ("+-%.2f" % sd)
             limit = ("%.0f %%" % (100 * lim)) if rel_key else ("%.2f" % lim)
             out.append("%s too uncertain (%s, 1 sigma, limit %s): repeat %s" % (name, shown, limit, redo))
+    hunts = fit["_trial"].get("hunts", ())
+    if hunts:
+        # its own loop limit-cycles: every response measured is the pilot's hunting, not the boat's,
+        # and no track law steers that boat straight (docs/BENCHMARK_ROBUST.md "pilot alone")
+        t, txt = hunts[0]
+        what = txt.partition("(")[2].rstrip(")") or "its event"  # "heading +-28 deg, period 12 s"
+        out.append("the pilot hunted during the trial (%s, %s): lower its response/rudder gain, then "
+                   "sail the whole trial again" % (what, _manoeuvre_at(fit, t)))
     return out
+
+
+def _manoeuvre_at(fit, t_s):
+    """The trial's manoeuvre running at t_s (log time), as the crew knows it."""
+    t = t_s - fit["trial"]["start_s"]
+    for kind, a, b in fit["trial"]["manoeuvres"]:
+        if a <= t <= b:
+            return "in the %s at %.0f s" % (kind, t)
+    return "at %.0f s" % t
 
 
 def warnings(fit):
@@ -893,6 +924,11 @@ def warnings(fit):
             out.append("%d of the %d course steps at %d RPM had not settled within step_max_s (the "
                        "pilot's auto-trim, or waves): its closed-response numbers are less certain"
                        % (s["unsettled"], s["steps"], rpm))
+            sw = s.get("unsettled_swing_sd_deg", float("nan"))
+            if math.isfinite(sw) and sw >= HUNT_HINT_SD_DEG:
+                out.append("at %d RPM the pilot's heading still swung +-%.1f deg (1 sigma) about its "
+                           "locked course at the end of those steps: if it keeps swinging on a steady "
+                           "course, it hunts; lower its response/rudder gain" % (rpm, sw))
     return out
 
 

@@ -63,3 +63,21 @@ def test_deadband_compensation_on_a_pilot_with_a_large_deadband():
     assert not plain_on["failure"] and not plain_on["osc"]["oscillates"], (plain_on.get("why"), plain_on["osc"])
     assert plain_on["settled_rms_m"] <= 1.1 * plain_off["settled_rms_m"], (plain_on["settled_rms_m"],
                                                                           plain_off["settled_rms_m"])
+
+
+def test_approach_overshoot_with_the_ram_at_its_stop():
+    """Issue 10, fourth round (docs/NAVIGATION.md "Fourth round: the approach and the first
+    swing"): boat 52 of the spread at 2 m/s (ST2000+ gain 2.24 deg/deg against 1.2, ram 5.6 deg/s).
+    From 5 m off its approach overshot the path by 7.9 m with the rudder stop to stop, and it swung
+    +-10 m with a 37 s period and never settled. The approach's overshoot (>= 0.7 of the start
+    offset) with the pilot's reported rudder at its stop for 3 s sets lookahead x2 and a 12 deg
+    clip at once: it settles (0.47 m measured). With that off (guidance.los_adapt_overshoot = 0, the
+    law before) the same boat oscillates: the test can fail."""
+    job = {"case": "straight_2.0", "law": "los", "boat": 52, "timeout": 300.0}
+    on = BR.run_job(dict(job, fw=None))["metrics"]
+    off = BR.run_job(dict(job, fw={"guidance": {"los_adapt_overshoot": 0.0}}))["metrics"]
+    assert not on["failure"], on.get("why")
+    assert not on["osc"]["oscillates"], on["osc"]
+    assert on["settled_rms_m"] < 0.8, on["settled_rms_m"]
+    assert off["osc"]["oscillates"] or off["failure"], off
+    assert off["settled_rms_m"] > 3.0 * on["settled_rms_m"], (off["settled_rms_m"], on["settled_rms_m"])

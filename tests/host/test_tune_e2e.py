@@ -115,6 +115,25 @@ def test_tune_refuses_a_cut_trial(trial_run, tmp_path, capsys):
     assert not (tmp_path / "t").exists()
 
 
+def test_tune_refuses_a_trial_in_which_the_pilot_hunted(tmp_path, capsys):
+    """A pilot whose own loop limit-cycles (gain x2, damping x0.3, a slow compass: inside the
+    robust bench's spreads): the firmware's pilot watch reports it during the trial, and tune
+    refuses with what to change on the pilot, not "repeat the manoeuvre"."""
+    from trackpilot_tools import logdecode
+
+    out = tmp_path / "hunts"
+    run, logs = _trial(out, overrides={"pilot": {"kp_rudder_per_deg": 2.4, "kd_rudder_s": 0.45,
+                                                 "compass_lag_s": 1.0}})
+    assert run.trial_seen and run.stop_reason == "finished", run.stop_reason
+    d = logdecode.decode_files(logs)
+    assert any(e.kind == "PILOT" and e.text.startswith("pilot hunts") for e in d.events)
+    rc = _cli(["tune", *map(str, logs), "--out", str(tmp_path / "t"), "--no-plots"])
+    err = capsys.readouterr().err
+    assert rc == 2
+    assert "the pilot hunted during the trial" in err and "lower its response/rudder gain" in err
+    assert "Traceback" not in err
+
+
 def test_tune_refuses_a_log_without_trial(tmp_path, capsys):
     out = tmp_path / "auto"
     run = SimRun(TRACK, out, seed=1, scenario="calm", duration_s=40)

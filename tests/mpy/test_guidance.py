@@ -369,6 +369,61 @@ def test_los_swing_watch_in_the_step_lowers_the_lead():
     t.eq(law.lead_scale, 0.0)
 
 
+def _approach_law(law, over_m, rudder_deg, straight_until_s=1e9, dt_s=0.2, seconds=80.0):
+    """An approach from 5 m (tests/mpy/test_swing.py's shape: over the path by over_m), the pilot
+    reporting rudder_deg once a second; the notes."""
+    notes = []
+    for k in range(int(seconds / dt_s)):
+        ts = k * dt_s
+        if ts < 15.0:
+            y = 5.0 * math.cos(0.5 * math.pi * ts / 15.0)
+        elif ts < 35.0:
+            y = -over_m * math.sin(math.pi * (ts - 15.0) / 20.0)
+        else:
+            y = 0.5 * over_m * math.sin(math.pi * (ts - 35.0) / 20.0) if ts < 55.0 else 0.0
+        law.out.note = ""
+        law._watch(dt_s, y, 6.0, ts < straight_until_s)
+        if k % 5 == 0:
+            law.pilot_rudder(1.0, rudder_deg)
+        if law.out.note:
+            notes.append(law.out.note)
+    return notes
+
+
+def test_los_approach_overshoot_with_the_rudder_at_its_stop():
+    # over by 4.5 m of 5 m with the rudder at its stop: lookahead x2, the straight's clip 12 deg, once
+    law = LosLaw()
+    notes = _approach_law(law, 4.5, -29.0)
+    t.eq(len(notes), 1, notes)
+    t.true("approach overshoots" in notes[0], notes)
+    t.eq(law.la_scale, 2.0)
+    t.near(law.clip_scale * law.clip_deg, 12.0, 1e-3)
+    t.eq(law.lead_scale, 1.0)
+    # a sluggish pilot: the same overshoot with its rudder well off the stop: left alone
+    law = LosLaw()
+    t.eq(_approach_law(law, 4.5, 10.0), [])
+    t.eq((law.la_scale, law.clip_scale), (1.0, 1.0))
+    # the nominal boat's approach (over by 1.9 m of 5 m) with the rudder at its stop: quiet
+    law = LosLaw()
+    t.eq(_approach_law(law, 1.9, 29.0), [])
+    t.eq((law.la_scale, law.clip_scale), (1.0, 1.0))
+    # an overshoot after a turn is not the approach (the ordinary decay after a corner)
+    law = LosLaw()
+    t.eq(_approach_law(law, 4.5, 29.0, straight_until_s=0.0), [])
+    law = LosLaw()
+    law._watch(0.2, 5.0, 6.0, False)  # an arc: the approach is over, the watch starts again after it
+    t.eq(_approach_law(law, 4.5, 29.0), [])
+    t.eq((law.la_scale, law.clip_scale), (1.0, 1.0))
+    # off: adapt_overshoot 0
+    law = LosLaw(adapt_overshoot=0.0)
+    t.eq(_approach_law(law, 4.5, -29.0), [])
+    # a re-engage watches the next approach again
+    law = LosLaw()
+    _approach_law(law, 1.9, 29.0)
+    law.reset()
+    t.eq(len(_approach_law(law, 4.5, 29.0)), 1)
+
+
 def test_alos_held_in_corners():
     # _corner(): north 100 m at 2 m/s, arc of 13.5 m from n = 86.5. ALOS (alos_zone_m 5 m) learns
     # on the straight; it is held on the arc and in the corner's preview (preview_s 3.5 s x 2 m/s

@@ -72,3 +72,45 @@ def test_irregular_period_does_not_fire():
         return 0.0
 
     t.eq(_run(w, f, tt, dt_s=0.1), [])
+
+
+def _approach(ts, over_m, start_m=5.0):
+    """An approach from start_m off: down to the path in 15 s, over it by over_m (a 20 s half
+    cycle), back over by half of that, then on the path."""
+    if ts < 15.0:
+        return start_m * math.cos(0.5 * math.pi * ts / 15.0)
+    if ts < 35.0:
+        return -over_m * math.sin(math.pi * (ts - 15.0) / 20.0)
+    if ts < 55.0:
+        return 0.5 * over_m * math.sin(math.pi * (ts - 35.0) / 20.0)
+    return 0.0
+
+
+def test_overshoot_of_the_approach():
+    # overshoots by 4 m of 5 m (0.8): true from where the overshoot reaches 0.7 x 5 m = 3.5 m
+    w = SwingWatch(0.2, 1.0, 2, min_half_s=2.0, max_half_s=60.0)
+    seen = []
+    for k in range(400):
+        ts = k * 0.2
+        w.step(0.2, _approach(ts, 4.0))
+        if w.overshoot(0.7):
+            seen.append(ts)
+    t.true(len(seen) > 0, seen)
+    # 4 sin(pi (t - 15) / 20) = 3.5 at t = 15 + 20 asin(0.875) / pi = 21.8 s; false again once it closed
+    t.near(seen[0], 21.8, 0.3)
+    t.true(seen[-1] < 36.0, seen[-1])  # the next crossing (35 s, out of the +-0.2 m band) closes it
+    t.eq(w.closed, 2)  # the approach and the overshoot closed; the third half cycle still open
+    # the nominal boat's approach: over by 1.9 m of 5 m (0.38, measured at 3 m/s): never
+    w.reset()
+    for k in range(400):
+        w.step(0.2, _approach(k * 0.2, 1.9))
+        t.eq(w.overshoot(0.7), False)
+    # off (ratio 0) and below amp_min (0.9 m of 1.2 m): never
+    w.reset()
+    for k in range(400):
+        w.step(0.2, _approach(k * 0.2, 4.0))
+        t.eq(w.overshoot(0.0), False)
+    w.reset()
+    for k in range(400):
+        w.step(0.2, _approach(k * 0.2, 0.9, start_m=1.2))
+        t.eq(w.overshoot(0.7), False)

@@ -584,18 +584,22 @@ class Autopilot:
         self.wake_seatalk = True
 
     def watch_pilot(self, t_ms):
-        """Feed each new pilot status to the pilot watch while we steer; log when the pilot
-        starts or stops hunting (a person must lower its gain: shown on the HMI)."""
+        """Feed each new pilot status to the pilot watch while we steer (AUTO) or sail the
+        commissioning trial (TRIAL: its course steps are the plainest test of the pilot's own
+        loop); log when the pilot starts or stops hunting (a person must lower its gain: shown on
+        the HMI; `tune` refuses a trial in which it hunted)."""
         p = self.pilot
         st_ms = p.last_status_ms
-        if self.mm.mode != M.AUTO or st_ms is None or st_ms == self._watch_status_ms:
+        if self.mm.mode not in (M.AUTO, M.TRIAL) or st_ms is None or st_ms == self._watch_status_ms:
             return
         dt_s = 0.5 if self._watch_status_ms is None else ticks_diff(st_ms, self._watch_status_ms) / 1000.0
         self._watch_status_ms = st_ms
         text = self.pilot_watch.step(st_ms, dt_s, p.heading_deg, p.course_deg)
+        if self.mm.mode == M.AUTO and hasattr(self.law, "pilot_rudder"):  # los: a ram at its stop in the approach's overshoot
+            self.law.pilot_rudder(dt_s, p.rudder_deg)
         if text:
             self.event("PILOT", text)
-            if self.pilot_watch.hunting and hasattr(self.law, "pilot_hunts"):
+            if self.pilot_watch.hunting and self.mm.mode == M.AUTO and hasattr(self.law, "pilot_hunts"):
                 note = self.law.pilot_hunts()  # steer it gently (the los law)
                 if note:
                     self.event("GUIDE", note)

@@ -175,6 +175,10 @@ class LosLaw:
         "adapt_clip_min_deg": (10.0, "deg", 1.0, 120.0, "swing watch: the straight's command clip not below this"),
         "adapt_swing_m": (1.0, "m", 0.2, 10.0, "swing watch: a half cycle counts from this amplitude of the path xte"),
         "adapt_keep": (0.6, "1", 0.1, 1.0, "swing watch: each half cycle keeps at least this share of the one before"),
+        "adapt_overshoot": (0.7, "1", 0.0, 5.0, "swing watch: the approach's overshoot / its start offset that acts ... (0 = off)"),
+        "adapt_stop_s": (3.0, "s", 0.0, 60.0, "... with the rudder at its stop this long since the crossing"),
+        "adapt_stop_deg": (27.0, "deg", 1.0, 90.0, "the pilot's reported rudder at or beyond this is at its stop"),
+        "adapt_overshoot_clip_deg": (12.0, "deg", 5.0, 120.0, "the straight's clip set then (and lookahead x2)"),
         "adapt_split": (3.5, "1", 1.0, 20.0, "swing watch: period / (lookahead / U) below which the lead is cut"),
         "tau_sched": (0.0, "1", 0.0, 1.0, "lookahead and lead from the measured heading response (1 = on; measured no gain)"),
         "tau_zeta": (0.7, "1", 0.3, 1.5, "damping ratio kept at the measured heading response"),
@@ -194,6 +198,8 @@ class LosLaw:
         self.la_scale = 1.0
         self.lead_scale = 1.0
         self.clip_scale = 1.0
+        self._approach = True  # the first approach since the engage: its overshoot is watched
+        self._stop_s = 0.0
         # the closed heading response fitted to the locked course (nav/tauest.py): made only when
         # tau_sched is on (off by default: no measured gain, and it costs the ESP32's heap)
         self.tau = None
@@ -220,6 +226,8 @@ class LosLaw:
         self.beta_hat_rad = 0.0
         self._intercept_clamped = False
         self.swing.reset()
+        self._approach = True
+        self._stop_s = 0.0  # the pilot's rudder at its stop in the approach's overshoot
         if self.tau is not None:
             self.tau.reset()
         self.out.valid = False
@@ -473,8 +481,17 @@ class LosLaw:
         halved (not below adapt_clip_min_deg). Turns do not count and keep the clip as set."""
         if not straight:
             self.swing.reset()
+            self._approach = False  # a turn's exit is not the approach
             return
-        if not self.swing.step(dt_s, y):
+        fired = self.swing.step(dt_s, y)
+        if self._approach and self.swing.closed >= 2:
+            self._approach = False  # the overshoot's half cycle closed: the approach is over
+        if (not fired and self._approach and self._stop_s >= self.adapt_stop_s
+                and self.swing.overshoot(self.adapt_overshoot)):
+            self._approach = False  # once
+            self._on_overshoot()
+            return
+        if not fired:
             return
         period_s = 2.0 * self.swing.first_s
         clip_min = self.adapt_clip_min_deg / self.clip_deg
@@ -488,6 +505,30 @@ class LosLaw:
         else:
             what = "at its limits"
         self.out.note = "xte swings +-%.1f m, period %.0f s: %s" % (self.swing.amp, period_s, what)
+
+    def pilot_rudder(self, dt_s, rudder_deg):
+        """Each new pilot status in AUTO: its reported rudder, dt_s since the last status. Counts
+        the seconds the rudder stands at its stop (adapt_stop_deg) while the approach's overshoot
+        is open (the half cycle after the first crossing of the path since the engage)."""
+        if (self._approach and self.swing.closed == 1 and rudder_deg is not None
+                and (rudder_deg >= self.adapt_stop_deg or rudder_deg <= -self.adapt_stop_deg)):
+            self._stop_s += dt_s
+
+    def _on_overshoot(self):
+        """The approach overshoots the path by adapt_overshoot of where it started while the
+        pilot's rudder stands at its stop: its ram saturates on the law's course steps (a high
+        gain on a slow ram, docs/NAVIGATION.md "Fourth round"): lookahead x2 and the straight's
+        clip cut to adapt_overshoot_clip_deg now, not after two more half cycles. (A sluggish pilot
+        overshoots with its rudder well off the stop: left alone, a longer lookahead and a tight
+        clip starve it.)"""
+        self.la_scale = min(self.adapt_max_scale, self.la_scale * 2.0)
+        scale = max(self.adapt_clip_min_deg, self.adapt_overshoot_clip_deg) / self.clip_deg
+        if scale < self.clip_scale:
+            self.clip_scale = scale
+        self.out.note = ("approach overshoots %.1f m of %.1f m, rudder at its stop %.0f s: "
+                         "lookahead x%.2f, clip %.0f deg") % (
+            self.swing.peak, self.swing.prev_amp, self._stop_s, self.la_scale,
+            self.clip_deg * self.clip_scale)
 
     def _speed(self, prog, leg):
         """The leg's speed, eased towards the next leg's before the waypoint (surge lag), and

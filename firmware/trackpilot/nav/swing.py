@@ -9,6 +9,8 @@ at least keep_ratio of the previous half cycle's amplitude (it decays by less th
 and its duration stays within period_ratio of the first one in the row (a regular period).
 step() returns True once `need` half cycles in a row qualified (then the row starts again): the
 same rule as the robustness benchmark's oscillation metric (docs/BENCHMARK_ROBUST.md), on line.
+overshoot(ratio) asks about the half cycle after the first one (an approach's overshoot of the path,
+while it is still open): does its peak so far reach ratio x the first one's?
 
 A few floats, no history, nothing allocated per step (MicroPython, small heap)."""
 
@@ -34,6 +36,7 @@ class SwingWatch:
         self.prev_amp = 0.0
         self.amp = 0.0  # amplitude of the last closed half cycle
         self.half_s = 0.0  # duration of the last closed half cycle
+        self.closed = 0  # half cycles closed since the reset (the first one uncounted)
 
     def step(self, dt_s, x):
         self.t_half_s += dt_s
@@ -46,6 +49,8 @@ class SwingWatch:
         if s == 0 or s == self.side:
             return False
         fired = False
+        if self.side != 0:
+            self.closed += 1
         if self.side != 0 and self.counted:
             fired = self._close(self.t_half_s, self.peak)
         elif self.side != 0:
@@ -55,6 +60,13 @@ class SwingWatch:
         self.t_half_s = 0.0
         self.peak = ax
         return fired
+
+    def overshoot(self, ratio):
+        """True while the second half cycle since the reset is open (the first ran from the reset to
+        a crossing: an approach) and its peak so far is at least amp_min and ratio x the first one's
+        (the overshoot's share of the approach; ratio <= 0: never)."""
+        return (ratio > 0.0 and self.closed == 1 and self.peak >= self.amp_min
+                and self.peak >= ratio * self.prev_amp)
 
     def _close(self, dur_s, amp):
         self.amp = amp
