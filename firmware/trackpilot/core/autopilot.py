@@ -117,8 +117,8 @@ class Autopilot:
         self._prev_heading = None
         from trackpilot.core.pilotwatch import PilotWatch
 
-        self.pilot_watch = PilotWatch()  # does the pilot's own loop hunt?
-        self.pilot_db = None  # the pilot's deadband (core/pilotdb.py): made on the first los straight
+        pc = cfg["pilot"]  # does the pilot's own loop hunt? its deadband (compensated on los straights)
+        self.pilot_watch = PilotWatch(db_prior_deg=pc["deadband_deg"], db_frac=pc["deadband_comp_frac"])
         self._watch_status_ms = None
         self.refusal = ""
         self.corr_age_s = None  # age of the last RTK correction frame (the shell's reading)
@@ -424,21 +424,21 @@ class Autopilot:
             # the seed baseline keeps its pinned form: course = pilot compass + relative setpoint
             if self.compass_offset_deg is not None and not self.seed_baseline:
                 target = out.heading_cmd_deg + self.compass_offset_deg
-                # the pilot's deadband (core/pilotdb.py): only on a los straight in AUTO
-                active = mm.mode == M.AUTO and getattr(self.law, "_on_straight", False)
-                if active and self.pilot_db is None:
-                    self.pilot_db = self._make_pilot_db()
-                if self.pilot_db is not None:
-                    target, note = self.pilot_db.course(
-                        t_ms, target, fix.heading_deg + self.compass_offset_deg, self.pilot.course_deg, active)
-                    if note:
-                        self.event("PILOT", note)
+                # the pilot's deadband (core/pilotwatch.py): only on a los straight in AUTO, the law
+                # at its own tuning (a boat its swing watch retuned gets no relay on top)
+                w, law = self.pilot_watch, self.law
+                target = w.deadband_course(
+                    t_ms, target, fix.heading_deg + self.compass_offset_deg, self.pilot.course_deg,
+                    mm.mode == M.AUTO and getattr(law, "_on_straight", False) and law.la_scale == 1.0
+                    and law.lead_scale == 1.0 and law.clip_scale == 1.0)
+                if w.db_note:
+                    self.event("PILOT", w.db_note)
                 self.relative_cmd_deg = wrap180(target - self.pilot.heading_deg)
             else:
                 self.relative_cmd_deg = wrap180(out.heading_cmd_deg - fix.heading_deg)
             self.pilot.steer_to(self.relative_cmd_deg, t_ms)
-        elif self.pilot_db is not None:
-            self.pilot_db.reset()
+        else:
+            self.pilot_watch.deadband_reset()
         if mm.mode == M.TRIAL and epoch:
             self.trial_epoch(t_ms)
         # the motor
@@ -553,13 +553,6 @@ class Autopilot:
             self.event("GNSS", "receiver epoch interval %d ms (%.1f Hz)%s" % (
                 iv, 1000.0 / iv, "" if iv == gnss.EPOCH_MS else
                 ", configured %d ms: the control step uses the measured one" % gnss.EPOCH_MS))
-
-    def _make_pilot_db(self):
-        """Made on the first los straight in AUTO: nothing allocated under the seed law."""
-        from trackpilot.core.pilotdb import DeadbandComp
-
-        pc = self.cfg["pilot"]
-        return DeadbandComp(pc["deadband_deg"], pc["deadband_comp_frac"])
 
     def apply_pilot(self, t_ms):
         """Turn the mode machine's pilot decision into driver commands, once per change."""
