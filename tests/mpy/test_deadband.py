@@ -1,4 +1,4 @@
-# core/pilotwatch.py's deadband (PilotWatch.deadband_course) under MicroPython: the estimate
+# core/pilotdb.py (PilotDeadband.deadband_course) under MicroPython: the estimate
 # converges on synthetic pilots with a known deadband (shifted or plain), the compensation holds the
 # heading closer once the pilot has shown its deadband (the heading held off on one side for 22 s),
 # it stays off (the wanted heading, bit for bit) on a pilot that corrects the heading sooner, the
@@ -7,11 +7,11 @@
 import math
 
 import tpassert as t
-from trackpilot.core.pilotwatch import PilotWatch
+from trackpilot.core.pilotdb import PilotDeadband
 
 
 def DeadbandComp(prior_deg=1.0, frac=0.8):
-    return PilotWatch(db_prior_deg=prior_deg, db_frac=frac)
+    return PilotDeadband(prior_deg, frac)
 
 
 def _sail(comp, db_true, seconds, wanted=90.0, shifted=True, drift_dps=0.6, period_s=40.0, dt_ms=200,

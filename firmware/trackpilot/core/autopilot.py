@@ -117,8 +117,8 @@ class Autopilot:
         self._prev_heading = None
         from trackpilot.core.pilotwatch import PilotWatch
 
-        pc = cfg["pilot"]  # does the pilot's own loop hunt? its deadband (compensated on los straights)
-        self.pilot_watch = PilotWatch(db_prior_deg=pc["deadband_deg"], db_frac=pc["deadband_comp_frac"])
+        self.pilot_watch = PilotWatch()  # does the pilot's own loop hunt?
+        self.pilot_db = None  # the pilot's deadband (core/pilotdb.py): made on the first los straight
         self._watch_status_ms = None
         self.refusal = ""
         self.corr_age_s = None  # age of the last RTK correction frame (the shell's reading)
@@ -424,21 +424,27 @@ class Autopilot:
             # the seed baseline keeps its pinned form: course = pilot compass + relative setpoint
             if self.compass_offset_deg is not None and not self.seed_baseline:
                 target = out.heading_cmd_deg + self.compass_offset_deg
-                # the pilot's deadband (core/pilotwatch.py): only on a los straight in AUTO, the law
-                # at its own tuning (a boat its swing watch retuned gets no relay on top)
-                w, law = self.pilot_watch, self.law
-                target = w.deadband_course(
-                    t_ms, target, fix.heading_deg + self.compass_offset_deg, self.pilot.course_deg,
-                    mm.mode == M.AUTO and getattr(law, "_on_straight", False) and law.la_scale == 1.0
-                    and law.lead_scale == 1.0 and law.clip_scale == 1.0)
-                if w.db_note:
-                    self.event("PILOT", w.db_note)
+                # the pilot's deadband (core/pilotdb.py): only on a los straight in AUTO, the law at
+                # its own tuning (a boat its swing watch retuned gets no relay on top)
+                law, db = self.law, self.pilot_db
+                active = (mm.mode == M.AUTO and getattr(law, "_on_straight", False) and law.la_scale == 1.0
+                          and law.lead_scale == 1.0 and law.clip_scale == 1.0)
+                if active and db is None:
+                    from trackpilot.core.pilotdb import PilotDeadband
+
+                    pc = self.cfg["pilot"]
+                    db = self.pilot_db = PilotDeadband(pc["deadband_deg"], pc["deadband_comp_frac"])
+                if db is not None:
+                    target = db.deadband_course(t_ms, target, fix.heading_deg + self.compass_offset_deg,
+                                                self.pilot.course_deg, active)
+                    if db.db_note:
+                        self.event("PILOT", db.db_note)
                 self.relative_cmd_deg = wrap180(target - self.pilot.heading_deg)
             else:
                 self.relative_cmd_deg = wrap180(out.heading_cmd_deg - fix.heading_deg)
             self.pilot.steer_to(self.relative_cmd_deg, t_ms)
-        else:
-            self.pilot_watch.deadband_reset()
+        elif self.pilot_db is not None:
+            self.pilot_db.deadband_reset()
         if mm.mode == M.TRIAL and epoch:
             self.trial_epoch(t_ms)
         # the motor
