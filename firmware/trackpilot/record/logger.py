@@ -234,12 +234,12 @@ class Logger:
         for k in h:
             if k not in ("config_hash", "track_id", "reset_cause", "utc"):
                 extra[k] = h[k]
-        head = self.enc.header_into(
-            fw_version=self.fw_version, config_hash=h.get("config_hash", ""),
-            track_id=h.get("track_id", ""), reset_cause=h.get("reset_cause", ""),
-            t0_ms=self._now_ms & 0x3FFFFFFF, utc=h.get("utc", ""), session=self.session,
-            part=self.part, **extra)
-        if not self._write(head):
+        # the header goes to the file a line at a time (no 2 KB frame buffer on the heap)
+        if not self.enc.write_header(
+                self._write, fw_version=self.fw_version, config_hash=h.get("config_hash", ""),
+                track_id=h.get("track_id", ""), reset_cause=h.get("reset_cause", ""),
+                t0_ms=self._now_ms & 0x3FFFFFFF, utc=h.get("utc", ""), session=self.session,
+                part=self.part, **extra):
             try:  # a file without a whole header holds nothing: remove it, reuse the number
                 os.remove(self.path)
             except OSError:
