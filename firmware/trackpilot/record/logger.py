@@ -60,7 +60,9 @@ def parse_name(name):
 class Logger:
     # Tunables (bytes, ms): the same defaults as config "log" (docs/LOG_FORMAT.md).
     max_file_bytes = 256 * 1024
-    buf_bytes = 2048  # the simulated loop logs at most 1070 B in any 1 s (flush_ms); full: flushed early
+    # the simulator's loop logs at most 1081 B in any 1 s (flush_ms) but the header, which is
+    # written directly (docs/MEMORY.md); a full buffer is written early
+    buf_bytes = 1536
     flush_ms = 1000
     space_check_ms = 10000  # statvfs walks littlefs: not every flush
     low_water_bytes = 256 * 1024  # below this, delete older sessions (at most 1/8 of the fs)
