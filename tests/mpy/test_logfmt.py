@@ -139,6 +139,22 @@ def test_header_written_in_pieces_without_a_frame_buffer():
     T.raises(ValueError, enc.write_header, put, fw_version="v" * 3000)
 
 
+def test_quantized_keeps_no_table():
+    import gc
+
+    gc.collect()
+    a0 = gc.mem_alloc()
+    for f in L.FIELDS:
+        L.quantized(f[0], 1.5)
+    gc.collect()
+    # it built a dict of every field's (scale, modulus) at the first call and kept it: 1.3 KB
+    T.true(gc.mem_alloc() - a0 < 256, "kept %d B" % (gc.mem_alloc() - a0))
+    T.eq(L.quantized("heading_deg", 359.996), 0.0)  # 0.01 deg, wrapped at 360
+    T.near(L.quantized("sog_mps", 1.23456), 1.235, 1e-6)
+    T.eq(L.quantized("t_ms", (1 << 30) + 5), 5)
+    T.raises(ValueError, L.quantized, "no_such_field", 1.0)
+
+
 def test_round_trip_exact():
     data, recs, enc = _build(40)
     T.eq(enc.keyframes, 8)
