@@ -141,7 +141,8 @@ class LosLaw:
     clipped, while far off the path or slow (anti-windup), on arcs and in a corner's preview
     (alos_turn_hold), and clamped.
     lookahead = clamp(lookahead_gain * U * heading_tc_s, min, max) = 6 s x U by default, from
-    the closed heading response's spread with a stability margin (docs/NAVIGATION.md).
+    the closed heading response's spread with a stability margin (docs/NAVIGATION.md); with accel_la
+    (off by default) from that share of the planned speed while the boat speeds up after an engage.
     Defaults: docs/NAVIGATION.md "Tuning".
     Corners are arcs of radius round_factor * turn_radius_m, shrunk where legs are too short
     (never below turn_radius_m / 2; sharper corners and reversals >= 170 deg are not rounded).
