@@ -241,7 +241,7 @@ class App:
     def _on_gnss_msg(self, kind):
         from trackpilot.devices import gnss
 
-        if kind == gnss.K_ACK_ACK or kind == gnss.K_ACK_NAK:
+        if (kind == gnss.K_ACK_ACK or kind == gnss.K_ACK_NAK) and self.gnss_cfg is not None:
             r = self.gnss.ack
             out = self.gnss_cfg.on_ack(r.cls, r.id, kind == gnss.K_ACK_ACK, self.clock())
             if out:
@@ -261,6 +261,9 @@ class App:
             self.event("GNSS", "receiver configuration %s: %s" % (
                 "done" if s.state == ubxcfg.DONE else "FAILED (running with what it sends)",
                 s.log[-1][1] if s.log else ""))
+            # finished: it answers nothing more, so its frames and log go (docs/MEMORY.md)
+            self.gnss_cfg = None
+            self.gnss.on_msg = None
 
     def task_gnss(self):
         """The receiver's configuration starts; then its bytes are pumped to the parser (the
@@ -447,7 +450,7 @@ class App:
             t = self.clock()
             if self.gnss.feed(self._empty, 0, t):  # an epoch closed by its timeout (no more bytes)
                 self.control_step(t)
-            if hasattr(self, "gnss_cfg"):
+            if getattr(self, "gnss_cfg", None) is not None:
                 self.gnss_config_poll(t)
             self.core.on_gnss_watch(t, self.gnss.interval_ms, self.correction_age_s(t))
             self.flush()

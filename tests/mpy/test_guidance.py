@@ -443,3 +443,41 @@ def test_alos_held_in_corners():
     e, n = 13.5 - 14.5 * math.cos(math.radians(30)), 86.5 + 14.5 * math.sin(math.radians(30))
     t.true(not integral_moves(1.0, e, n, 30.0, 2.0), "on the arc, 1 m outside: held")
     t.true(integral_moves(0.0, e, n, 30.0, 2.0), "on the arc, hold off: learns")
+
+
+def test_los_lookahead_from_the_planned_speed_while_accelerating():
+    # accel_la (docs/NAVIGATION.md "Fifth round"): engaged from rest 5 m off on a 2 m/s leg, the
+    # lookahead comes from the planned speed (2 x 2 m/s x 3 s = 12 m), not from the 0.5 m/s SOG (the
+    # 6 m floor): the first course step is atan(5 / 12) = 22.6 deg, not atan(5 / 6) = 39.8 deg
+    def first(**kw):
+        law = LosLaw(alos_gain=0.0, **kw)
+        prog = Progress(_corner())
+        return law, prog, _step(law, prog, make_fix(5.0, 40.0, 0.0, sog_mps=0.5))
+    law, prog, out = first(accel_la=1.0)
+    t.near(out.lookahead_m, 12.0, 1e-4)
+    t.near(out.rel_cmd_deg, -math.degrees(math.atan(5.0 / 12.0)), 0.02)
+    # a share of it: 0.6 x 2 m/s -> 7.2 m
+    t.near(first(accel_la=0.6)[2].lookahead_m, 7.2, 1e-4)
+    # off (the default): the SOG's lookahead, the nominal law as before
+    law0, _, out0 = first()
+    t.eq(law0.accel_la, 0.0)
+    t.near(out0.lookahead_m, 6.0, 1e-4)
+    t.near(out0.rel_cmd_deg, -math.degrees(math.atan(5.0 / 6.0)), 0.02)
+    # still accelerating at 1.5 m/s (< 0.9 x 2): 12 m; at 1.8 m/s the acceleration is over: the
+    # SOG's lookahead from then on, even if the boat slows again (no return to the plan's)
+    t.near(_step(law, prog, make_fix(5.0, 41.0, 0.0, sog_mps=1.5)).lookahead_m, 12.0, 1e-4)
+    t.near(_step(law, prog, make_fix(5.0, 42.0, 0.0, sog_mps=1.8)).lookahead_m, 10.8, 1e-4)
+    t.near(_step(law, prog, make_fix(5.0, 43.0, 0.0, sog_mps=0.5)).lookahead_m, 6.0, 1e-4)
+    # a new engage (reset) arms it again
+    law.reset()
+    t.near(_step(law, prog, make_fix(5.0, 44.0, 0.0, sog_mps=0.5)).lookahead_m, 12.0, 1e-4)
+    # engaged at speed: nothing changes (the SOG's lookahead at once, and after)
+    law = LosLaw(alos_gain=0.0, accel_la=1.0)
+    prog = Progress(_corner())
+    t.near(_step(law, prog, make_fix(5.0, 40.0, 0.0, sog_mps=2.0)).lookahead_m, 12.0, 1e-4)
+    t.near(_step(law, prog, make_fix(5.0, 41.0, 0.0, sog_mps=1.0)).lookahead_m, 6.0, 1e-4)
+    # a turn ends it: engaged slow in the corner's preview, then back on a straight: the SOG's
+    law = LosLaw(alos_gain=0.0, accel_la=1.0)
+    prog = Progress(_corner())
+    _step(law, prog, make_fix(0.0, 85.5, 0.0, sog_mps=0.5))
+    t.near(_step(law, prog, make_fix(2.0, 40.0, 0.0, sog_mps=0.5)).lookahead_m, 6.0, 1e-4)

@@ -85,6 +85,76 @@ def test_crc_check_value():
     T.eq(L.crc16(b""), 0xFFFF)
 
 
+def test_crc_nibble_table_equals_the_bitwise_crc():
+    # the 16-entry table (docs/MEMORY.md) against the CRC computed a bit at a time
+    data = bytes(range(256)) + bytes((255 - i) * 7 & 0xFF for i in range(256))
+    for a, b in ((0, 512), (3, 4), (100, 357), (511, 512)):
+        crc = 0xFFFF
+        for i in range(a, b):
+            crc ^= data[i] << 8
+            for _ in range(8):
+                crc = ((crc << 1) ^ 0x1021) if crc & 0x8000 else (crc << 1)
+            crc &= 0xFFFF
+        T.eq(L.crc16(data, a, b), crc, "%d..%d" % (a, b))
+
+
+def test_header_written_in_pieces_without_a_frame_buffer():
+    import gc
+
+    gc.collect()
+    a0 = gc.mem_alloc()
+    enc = L.LogEncoder()
+    gc.collect()
+    # besides its control and event buffers it kept a 2 KB one for the header frame (MAX_PAYLOAD)
+    other = gc.mem_alloc() - a0 - len(enc._buf) - len(enc._ebuf)
+    T.true(other < L.MAX_PAYLOAD, "encoder heap besides its buffers %d B" % other)
+    pieces = []
+
+    def put(b):
+        pieces.append(bytes(b))
+        return True
+
+    T.true(enc.write_header(put, fw_version="t", track_id="loop", session=3, part=1, boat="x\ry"))
+    T.true(len(pieces) > 10, "a line at a time")
+    whole = b"".join(pieces)
+    T.eq(whole, enc.header(fw_version="t", track_id="loop", session=3, part=1, boat="x\ry"))
+    # the frame as the decoder reads it: tag, 2-byte length, MAGIC, version, text, CRC over all
+    n = len(whole) - 5
+    T.eq(whole[0], 0xB0 | L.T_HEADER)
+    T.eq((whole[1] & 0x7F) | (whole[2] << 7), n)
+    T.eq(whole[3:7], L.MAGIC + bytes((L.FORMAT_VERSION,)))
+    c = L.crc16(whole, 0, len(whole) - 2)
+    T.eq(whole[-2:], bytes((c & 0xFF, c >> 8)))
+    h = list(L.iter_records(whole))[0]
+    T.eq((h.type, h.get("track"), h.get("part"), h.get("boat")), ("header", "loop", "1", "x y"))
+    # a write that fails stops it there
+    calls = [0]
+
+    def fail_third(b):
+        calls[0] += 1
+        return calls[0] < 3
+
+    T.eq(enc.write_header(fail_third, fw_version="t"), False)
+    T.eq(calls[0], 3)
+    T.raises(ValueError, enc.write_header, put, fw_version="v" * 3000)
+
+
+def test_quantized_keeps_no_table():
+    import gc
+
+    gc.collect()
+    a0 = gc.mem_alloc()
+    for f in L.FIELDS:
+        L.quantized(f[0], 1.5)
+    gc.collect()
+    # it built a dict of every field's (scale, modulus) at the first call and kept it: 1.3 KB
+    T.true(gc.mem_alloc() - a0 < 256, "kept %d B" % (gc.mem_alloc() - a0))
+    T.eq(L.quantized("heading_deg", 359.996), 0.0)  # 0.01 deg, wrapped at 360
+    T.near(L.quantized("sog_mps", 1.23456), 1.235, 1e-6)
+    T.eq(L.quantized("t_ms", (1 << 30) + 5), 5)
+    T.raises(ValueError, L.quantized, "no_such_field", 1.0)
+
+
 def test_round_trip_exact():
     data, recs, enc = _build(40)
     T.eq(enc.keyframes, 8)

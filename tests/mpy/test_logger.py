@@ -188,3 +188,47 @@ def test_application_interface():
         T.near(c.path_xte_m, -0.12, 0.006)
     finally:
         _rmtree(d)
+
+
+class _FailingFile:
+    """A real file whose writes fail with ENOSPC after `ok` of them (the header's lines)."""
+
+    def __init__(self, path, mode, ok):
+        self.f = open(path, mode)
+        self.ok = ok
+
+    def write(self, b):
+        if self.ok[0] <= 0:
+            raise OSError(28)
+        self.ok[0] -= 1
+        return self.f.write(b)
+
+    def flush(self):
+        self.f.flush()
+
+    def close(self):
+        self.f.close()
+
+
+def test_header_failing_midway_leaves_no_file():
+    d = _tmpdir()
+    try:
+        ok = [4]  # the header goes out a line at a time: the 5th write fails, inside it
+        lg = Logger(d, fw_version="t", open_fn=lambda p, m: _FailingFile(p, m, ok), space_check_ms=1000)
+        lg.start(0, reset_cause="power_on")
+        T.eq(os.listdir(d), [], "a file without a whole header is removed")
+        T.eq(lg.part, -1)
+        lg.event("BOOT", "kept in the buffer", 5)
+        ok[0] = 10 ** 6  # space again: after the back-off the next flush opens part 0
+        lg.tick(500)
+        T.eq(os.listdir(d), [])
+        lg.tick(1500)
+        lg.close()
+        T.eq(os.listdir(d), ["0001-00.tpl"])
+        recs = _decode_dir(d)[0][1]
+        T.eq([r.type for r in recs], ["header", "event"])
+        T.eq(recs[0].get("reset"), "power_on")
+        T.true(recs[1].text.startswith("logging resumed after dropping 0 control, 1 event"), recs[1].text)
+        T.eq(lg.dropped_events, 1)  # the event logged while the flash was full
+    finally:
+        _rmtree(d)

@@ -96,10 +96,12 @@ def kind_code(name):
 
 
 def _crc24q_table():
-    t = array.array("I", [0] * 256)
-    for i in range(256):
-        c = i << 16
-        for _ in range(8):
+    """CRC-24Q of each 4-bit value: the CRC runs a nibble at a time, with a 16-entry table of
+    64 B where a byte table took 1 KB of heap for a check that only RTCM3 frames need."""
+    t = array.array("I", [0] * 16)
+    for i in range(16):
+        c = i << 20
+        for _ in range(4):
             c <<= 1
             if c & 0x1000000:
                 c ^= 0x1864CFB
@@ -115,8 +117,10 @@ def crc24q(buf, a, b):
     t = _CRC24Q
     c = 0
     for i in range(a, b):
-        # mask before the shift: (c << 8) would pass 2**30 (a heap-allocated long int on the ESP32)
-        c = ((c & 0xFFFF) << 8) ^ t[(c >> 16) ^ buf[i]]
+        x = buf[i]
+        # the low 20 bits move up a nibble; the top nibble with the input's indexes the table
+        c = ((c & 0xFFFFF) << 4) ^ t[(c >> 20) ^ (x >> 4)]
+        c = ((c & 0xFFFFF) << 4) ^ t[(c >> 20) ^ (x & 15)]
     return c
 
 
@@ -528,8 +532,9 @@ class GnssParser:
             rx = self._ck_rx
             while i < n and left:
                 c = data[i]
-                if pos < total - 3:
-                    crc = ((crc & 0xFFFF) << 8) ^ t[(crc >> 16) ^ c]  # see crc24q
+                if pos < total - 3:  # see crc24q
+                    crc = ((crc & 0xFFFFF) << 4) ^ t[(crc >> 20) ^ (c >> 4)]
+                    crc = ((crc & 0xFFFFF) << 4) ^ t[(crc >> 20) ^ (c & 15)]
                 else:
                     rx = (rx << 8) | c
                 pos += 1

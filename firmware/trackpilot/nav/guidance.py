@@ -141,7 +141,8 @@ class LosLaw:
     clipped, while far off the path or slow (anti-windup), on arcs and in a corner's preview
     (alos_turn_hold), and clamped.
     lookahead = clamp(lookahead_gain * U * heading_tc_s, min, max) = 6 s x U by default, from
-    the closed heading response's spread with a stability margin (docs/NAVIGATION.md).
+    the closed heading response's spread with a stability margin (docs/NAVIGATION.md); with accel_la
+    (off by default) from that share of the planned speed while the boat speeds up after an engage.
     Defaults: docs/NAVIGATION.md "Tuning".
     Corners are arcs of radius round_factor * turn_radius_m, shrunk where legs are too short
     (never below turn_radius_m / 2; sharper corners and reversals >= 170 deg are not rounded).
@@ -156,6 +157,8 @@ class LosLaw:
         "lookahead_min_m": (6.0, "m", 1.0, 50.0, "lookahead clamp, low (gain x T' L: slow boat)"),
         "lookahead_max_m": (30.0, "m", 2.0, 200.0, "lookahead clamp, high"),
         "xte_lead_s": (3.0, "s", 0.0, 20.0, "damping: steer on the xte predicted this far ahead (0 = off)"),
+        "accel_la": (0.0, "1", 0.0, 1.0, "from an engage until the boat is at its planned speed, the lookahead from this share of it (0 = off: measured, not earned)"),
+        "accel_done": (0.9, "1", 0.1, 1.0, "... the acceleration is over at this share of the planned speed"),
         "intercept_max_deg": (90.0, "deg", 5.0, 90.0, "clamp of the approach angle to the path (90 = off)"),
         "preview_s": (3.5, "s", 0.0, 10.0, "preview time: path turn this far ahead is fed forward"),
         "crab_use": (1.0, "1", 0.0, 1.0, "weight of the measured crab angle (0 = off)"),
@@ -225,6 +228,7 @@ class LosLaw:
         self.crab_ok = False
         self.beta_hat_rad = 0.0
         self._intercept_clamped = False
+        self._accel = True  # engaged, not yet at the planned speed (the lookahead from the plan)
         self.swing.reset()
         self._approach = True
         self._stop_s = 0.0  # the pilot's rudder at its stop in the approach's overshoot
@@ -385,13 +389,23 @@ class LosLaw:
                 self.crab_ok = True
             else:
                 self.crab_f_deg += (c - self.crab_f_deg) * (dt_s / (self.crab_tc_s + dt_s))
-        la = _clip(self.lookahead_gain * u_eff * self.heading_tc_s, self.lookahead_min_m,
-                   self.lookahead_max_m) * self.tau_scale * self.la_scale
         tan_rad, y, prev_rad, arc_r = self._path(prog, u_eff * self.preview_s)
         out.note = ""
         self._on_straight = arc_r == 0.0 and -0.035 < prev_rad < 0.035 and not prog.finished
+        # engaged from rest: the lookahead of the speed the boat is being driven to, so the first
+        # course step is the one for that speed, not a 40 deg one for 6 m (docs/NAVIGATION.md
+        # "Fifth round"); over once it has (nearly) reached that speed, or at a turn
+        u_la = u_eff
+        if self._accel:
+            v_plan = out.speed_cmd_mps
+            if not self._on_straight or u >= self.accel_done * v_plan:
+                self._accel = False
+            elif self.accel_la * v_plan > u_la:
+                u_la = self.accel_la * v_plan
+        la = _clip(self.lookahead_gain * u_la * self.heading_tc_s, self.lookahead_min_m,
+                   self.lookahead_max_m) * self.tau_scale * self.la_scale
         if self.adapt_max_scale > 1.0:
-            self._watch(dt_s, y, la / self.la_scale / u_eff, self._on_straight)
+            self._watch(dt_s, y, la / self.la_scale / u_la, self._on_straight)
         # adaptive crab (ALOS), anti-windup: frozen while clipped (the command or the approach
         # angle), far off or slow
         # held through corners: a turn's lag is not a steady crab, and what it learnt there

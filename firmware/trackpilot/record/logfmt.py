@@ -224,10 +224,12 @@ class Damage:
 
 # ---------------------------------------------------------------- CRC-16/CCITT-FALSE
 def _crc_table():
-    tab = array("H", range(256))  # 16-bit entries: 0.5 KB of heap where a list of ints took 1 KB
-    for i in range(256):
-        c = i << 8
-        for _ in range(8):
+    """CRC-16 of each 4-bit value: the CRC runs a nibble at a time, with a 16-entry table of 32 B
+    (a byte table took 0.5 KB of heap)."""
+    tab = array("H", range(16))
+    for i in range(16):
+        c = i << 12
+        for _ in range(4):
             c = ((c << 1) ^ 0x1021) if c & 0x8000 else (c << 1)
         tab[i] = c & 0xFFFF
     return tab
@@ -242,7 +244,10 @@ def crc16(data, start=0, end=-1, crc=0xFFFF):
     if end < 0:
         end = len(data)
     for i in range(start, end):
-        crc = ((crc << 8) & 0xFF00) ^ tab[(crc >> 8) ^ data[i]]
+        x = data[i]
+        # the low 12 bits move up a nibble; the top nibble with the input's indexes the table
+        crc = ((crc & 0xFFF) << 4) ^ tab[(crc >> 12) ^ (x >> 4)]
+        crc = ((crc & 0xFFF) << 4) ^ tab[(crc >> 12) ^ (x & 15)]
     return crc
 
 
@@ -256,14 +261,9 @@ def _put_uv(buf, i, v):
     return i + 1
 
 
-def _put_text(buf, i, text):
-    """Puts text (str, \r as a space, or bytes) at buf[i:]; returns the index after it. Past the
-    buffer: the index it would have reached (the caller checks the length)."""
-    b = text.replace("\r", " ").encode() if isinstance(text, str) else text
-    e = i + len(b)
-    if e <= len(buf) - 2:
-        buf[i:e] = b
-    return e
+def _text_bytes(text):
+    """Text as written into a record: str with \r as a space, encoded; bytes as they are."""
+    return text.replace("\r", " ").encode() if isinstance(text, str) else text
 
 
 def _put_sv(buf, i, v):
@@ -307,17 +307,18 @@ def _quant(x, scale):
         return 0
 
 
-_SCALE_MOD = {}  # field name -> (scale, modulus), for quantized()
+# the fields' names in FIELDS' order, for quantized(): a tuple of 0.2 KB where a dict of
+# (scale, modulus) pairs took 1.3 KB of heap (docs/MEMORY.md)
+_NAMES = tuple(f[0] for f in FIELDS)
 
 
 def quantized(name, x):
     """`x` exactly as the log stores it and a decoder gives it back (int / scale, wrapped).
     The app feeds its control step with these values, so a replay of the log sees exactly the
     inputs the boat saw and reproduces its commands bit for bit."""
-    if not _SCALE_MOD:
-        for f in FIELDS:
-            _SCALE_MOD[f[0]] = (f[1], f[4])
-    scale, mod = _SCALE_MOD[name]
+    f = FIELDS[_NAMES.index(name)]
+    scale = f[1]
+    mod = f[4]
     q = _quant(x, scale)
     if mod:
         q %= mod
@@ -363,10 +364,9 @@ class LogEncoder:
         self._mv = memoryview(self._buf)
         self._ebuf = bytearray(3 + 5 + 1 + 32 + _MAX_TEXT + 2)
         self._emv = memoryview(self._ebuf)
-        # the HEADER frame is built here, allocated once at start (a new file's header is
-        # about 900 B: allocating it late, in a fragmented heap, was the first thing to fail)
-        self._hbuf = bytearray(3 + MAX_PAYLOAD + 2)
-        self._hmv = memoryview(self._hbuf)
+        # no buffer for the HEADER frame (about 900 B): write_header() hands it out line by line
+        # (a 2 KB buffer kept for it took heap all the time; allocating it late, in a fragmented
+        # heap, was the first thing to fail: docs/MEMORY.md)
         self.records = 0
         self.keyframes = 0
         self._seq = 0  # control record counter (mod 256): a lost whole record is detected
@@ -382,41 +382,59 @@ class LogEncoder:
     def header(self, fw_version="", config_hash="", track_id="", reset_cause="", t0_ms=0,
                utc="", session=0, part=0, **extra):
         """The HEADER record (bytes). Every file starts with one; keys are free text values."""
-        return bytes(self.header_into(fw_version, config_hash, track_id, reset_cause, t0_ms, utc,
-                                      session, part, **extra))
+        out = bytearray()
 
-    def header_into(self, fw_version="", config_hash="", track_id="", reset_cause="", t0_ms=0,
-                    utc="", session=0, part=0, **extra):
-        """header() built in the encoder's preallocated buffer: a memoryview of it, valid until
-        the next call."""
-        buf = self._hbuf
-        j = _put_text(buf, 3, MAGIC)
-        buf[j] = FORMAT_VERSION
-        j += 1
-        j = _put_text(buf, j, "fw=%s" % fw_version)
-        j = _put_text(buf, j, "\nconfig=%s" % config_hash)
-        j = _put_text(buf, j, "\ntrack=%s" % track_id)
-        j = _put_text(buf, j, "\nreset=%s" % reset_cause)
-        j = _put_text(buf, j, "\nt0_ms=%d" % t0_ms)
-        j = _put_text(buf, j, "\nutc=%s" % utc)
-        j = _put_text(buf, j, "\nsession=%d" % session)
-        j = _put_text(buf, j, "\npart=%d" % part)
-        j = _put_text(buf, j, "\nkey_every=%d" % self.key_every)
+        def put(b):
+            out.extend(b)
+            return True
+
+        self.write_header(put, fw_version, config_hash, track_id, reset_cause, t0_ms, utc, session, part, **extra)
+        return bytes(out)
+
+    def _header_lines(self, fw_version, config_hash, track_id, reset_cause, t0_ms, utc, session, part, extra):
+        """The HEADER payload after MAGIC and the format byte, a line at a time (bytes)."""
+        yield _text_bytes("fw=%s" % fw_version)
+        yield _text_bytes("\nconfig=%s" % config_hash)
+        yield _text_bytes("\ntrack=%s" % track_id)
+        yield _text_bytes("\nreset=%s" % reset_cause)
+        yield _text_bytes("\nt0_ms=%d" % t0_ms)
+        yield _text_bytes("\nutc=%s" % utc)
+        yield _text_bytes("\nsession=%d" % session)
+        yield _text_bytes("\npart=%d" % part)
+        yield _text_bytes("\nkey_every=%d" % self.key_every)
         for k in sorted(extra):
-            j = _put_text(buf, j, "\n%s=%s" % (k, extra[k]))
+            yield _text_bytes("\n%s=%s" % (k, extra[k]))
         for name, scale, unit, coding, mod in self.fields:
-            j = _put_text(buf, j, "\nf %s %d %s %s %d" % (name, scale, unit or "-", coding, mod))
-        n = j - 3  # payload length
+            yield _text_bytes("\nf %s %d %s %s %d" % (name, scale, unit or "-", coding, mod))
+
+    def write_header(self, write, fw_version="", config_hash="", track_id="", reset_cause="", t0_ms=0,
+                     utc="", session=0, part=0, **extra):
+        """The HEADER frame given to write(bytes) -> bool in pieces of a line each, with no buffer
+        for the whole frame: the length first (a pass over the lines), then the lines with the CRC
+        summed on. Returns False as soon as a write does (the frame is then incomplete); raises
+        ValueError, before writing anything, when the header would be longer than MAX_PAYLOAD."""
+        args = (fw_version, config_hash, track_id, reset_cause, t0_ms, utc, session, part, extra)
+        n = len(MAGIC) + 1
+        for b in self._header_lines(*args):
+            n += len(b)
         if n > MAX_PAYLOAD:
             raise ValueError("log header too long (%d bytes)" % n)
-        start = 1 if n < 0x80 else 0  # the frame head (tag + 1 or 2 length bytes) ends at 3
-        buf[start] = _TAG_BASE | T_HEADER
-        _put_uv(buf, start + 1, n)
-        c = crc16(buf, start, j)
-        buf[j] = c & 0xFF
-        buf[j + 1] = c >> 8
         self.force_keyframe()
-        return self._hmv[start : j + 2]
+        head = bytearray(3 + len(MAGIC) + 1)
+        head[0] = _TAG_BASE | T_HEADER
+        j = _put_uv(head, 1, n)
+        head[j : j + len(MAGIC)] = MAGIC
+        j += len(MAGIC)
+        head[j] = FORMAT_VERSION
+        j += 1
+        c = crc16(head, 0, j)
+        if not write(memoryview(head)[:j]):
+            return False
+        for b in self._header_lines(*args):
+            c = crc16(b, 0, len(b), c)
+            if not write(b):
+                return False
+        return write(bytes((c & 0xFF, c >> 8)))
 
     def _values(self, rec):
         cur = self._cur

@@ -60,7 +60,9 @@ def parse_name(name):
 class Logger:
     # Tunables (bytes, ms): the same defaults as config "log" (docs/LOG_FORMAT.md).
     max_file_bytes = 256 * 1024
-    buf_bytes = 2048  # the simulated loop logs at most 1070 B in any 1 s (flush_ms); full: flushed early
+    # the simulator's loop logs at most 1081 B in any 1 s (flush_ms) but the header, which is
+    # written directly (docs/MEMORY.md); a full buffer is written early
+    buf_bytes = 1536
     flush_ms = 1000
     space_check_ms = 10000  # statvfs walks littlefs: not every flush
     low_water_bytes = 256 * 1024  # below this, delete older sessions (at most 1/8 of the fs)
@@ -234,12 +236,12 @@ class Logger:
         for k in h:
             if k not in ("config_hash", "track_id", "reset_cause", "utc"):
                 extra[k] = h[k]
-        head = self.enc.header_into(
-            fw_version=self.fw_version, config_hash=h.get("config_hash", ""),
-            track_id=h.get("track_id", ""), reset_cause=h.get("reset_cause", ""),
-            t0_ms=self._now_ms & 0x3FFFFFFF, utc=h.get("utc", ""), session=self.session,
-            part=self.part, **extra)
-        if not self._write(head):
+        # the header goes to the file a line at a time (no 2 KB frame buffer on the heap)
+        if not self.enc.write_header(
+                self._write, fw_version=self.fw_version, config_hash=h.get("config_hash", ""),
+                track_id=h.get("track_id", ""), reset_cause=h.get("reset_cause", ""),
+                t0_ms=self._now_ms & 0x3FFFFFFF, utc=h.get("utc", ""), session=self.session,
+                part=self.part, **extra):
             try:  # a file without a whole header holds nothing: remove it, reuse the number
                 os.remove(self.path)
             except OSError:

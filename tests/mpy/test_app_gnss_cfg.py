@@ -1,0 +1,107 @@
+# The app's receiver configuration session (ubxcfg.ConfigSession): its end is logged once, and the
+# finished session (frames, log) is released, as are the parser's acknowledgement callbacks
+# (docs/MEMORY.md "What was cut"); a late ACK after that is ignored.
+import os
+
+import tpassert as t
+from trackpilot import config
+from trackpilot.devices import gnss, ubxcfg
+
+DIR = "/tmp/trackpilot_test_app_gnss_cfg"
+
+try:
+    import asyncio  # noqa: F401
+
+    HAVE_ASYNCIO = True
+except ImportError:
+    HAVE_ASYNCIO = False
+
+
+class _Uart:
+    def __init__(self):
+        self.out = []
+
+    def write(self, b):
+        self.out.append(bytes(b))
+
+
+class _Wiring:
+    def __init__(self):
+        for d in (DIR, DIR + "/log"):
+            try:
+                os.mkdir(d)
+            except OSError:
+                pass
+        self.log_dir = DIR + "/log"
+        self.state_path = DIR + "/state.json"
+        self.lines = []
+        self.t = 0
+        self.gnss_uart = _Uart()
+
+    def ticks_ms(self):
+        return self.t
+
+    def rand(self, n=1):
+        return 0
+
+    def statvfs(self, path):
+        return (4096, 4096, 10000, 9000, 9000, 0, 0, 0, 0, 255)
+
+    def debug(self, text):
+        self.lines.append(text)
+
+
+def _ack(app, frame, ack=True):
+    r = app.gnss.ack
+    r.cls = frame[2]
+    r.id = frame[3]
+    app.gnss.on_msg(gnss.K_ACK_ACK if ack else gnss.K_ACK_NAK)
+
+
+def test_finished_session_is_released():
+    if not HAVE_ASYNCIO:
+        print("skipped: no asyncio")
+        return
+    from trackpilot.app import App
+
+    w = _Wiring()
+    app = App(w, config.defaults(), ())
+    coro = app.task_gnss()  # sends the first frame; the pump coroutine itself is not run
+    coro.close()
+    frames = list(app.gnss_cfg.frames)
+    t.eq(w.gnss_uart.out, [frames[0]])
+    for k in range(len(frames)):
+        w.t += 20
+        _ack(app, frames[k])
+    t.eq(app.gnss_cfg.state, ubxcfg.DONE)
+    w.t += 100
+    app.gnss_config_poll(w.t)
+    done = [x for x in w.lines if "receiver configuration" in x]
+    t.eq(len(done), 1)
+    t.true("done: configuration done" in done[0], done[0])
+    t.eq(app.gnss_cfg, None)
+    t.eq(app.gnss.on_msg, None)
+    t.eq(app.gnss_cfg_failed, False)
+    app._on_gnss_msg(gnss.K_ACK_ACK)  # a late one: nothing sent, nothing raised
+    t.eq(len(w.gnss_uart.out), len(frames))
+    app.log.close()
+
+
+def test_failed_session_is_reported_then_released():
+    if not HAVE_ASYNCIO:
+        print("skipped: no asyncio")
+        return
+    from trackpilot.app import App
+
+    w = _Wiring()
+    app = App(w, config.defaults(), ())
+    app.task_gnss().close()
+    frame = app.gnss_cfg.frames[0]
+    for _ in range(app.gnss_cfg.retries + 1):
+        w.t += 10
+        _ack(app, frame, ack=False)
+    app.gnss_config_poll(w.t)
+    t.true(any("receiver configuration FAILED" in x for x in w.lines), w.lines)
+    t.eq(app.gnss_cfg_failed, True)
+    t.eq(app.gnss_cfg, None)
+    app.log.close()
