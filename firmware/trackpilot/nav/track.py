@@ -425,6 +425,20 @@ def corner_deviation_m(turn_deg, radius_m):
     return radius_m * (1.0 - math.cos(math.radians(abs(turn_deg)) * 0.5))
 
 
+def uturn_width_m(trk, k):
+    """Width of the U-turn made by the corners at waypoints k and k + 1 (both the same way, 150 deg
+    or more together): how far waypoint k + 1 lies from the line of the leg into k. 0.0: no U-turn
+    there."""
+    legs = trk.legs
+    if k < 1 or k + 1 >= len(legs):
+        return 0.0
+    a = legs[k - 1].turn_deg
+    b = legs[k].turn_deg
+    if a * b <= 0.0 or abs(a + b) < 150.0 or abs(a) >= 179.0 or abs(b) >= 179.0:
+        return 0.0
+    return legs[k].length_m * abs(math.sin(math.radians(a)))
+
+
 def corner_tangent_m(turn_deg, radius_m):
     """Distance from the waypoint to where that circle touches each leg: R tan(theta/2)."""
     a = abs(turn_deg)
@@ -681,6 +695,11 @@ def validate(trk, boat=None):
                             "turning radius expect %.1f m off the track there (the turn passes %.1f m "
                             "inside the waypoint)" % (wps[k].label(k), th, r, dev,
                                                       r / math.cos(math.radians(abs(th)) * 0.5) - r))
+    for k in range(1, len(wps) - 2):
+        w = uturn_width_m(trk, k)
+        if 0.0 < w < 2.0 * r:
+            warnings.append("%s: U-turn %.1f m wide, narrower than the boat turns (2 x %.1f m); expect "
+                            "it to swing about %.1f m past the leg back" % (wps[k].label(k), w, r, 2.0 * r - w))
     return warnings
 
 

@@ -1,0 +1,135 @@
+"""TurnWatch: what the boat achieves in a turn, measured while it steers.
+
+Two figures, both from what the boat shows (docs/NAVIGATION.md "Fourth round: arcs the boat can
+follow"):
+
+- radius_m: the radius it turns at while the path asks more than it gives (the caller says when:
+  on an arc with the heading trailing the path, or the rudder at its stop). Over such a stretch the
+  distance sailed over the heading turned (SOG / yaw rate, integrated, so GNSS heading noise
+  averages out); a stretch counts from `min_s` seconds and `min_turn_deg` degrees. The estimate is
+  the mean of the stretches (the last `keep` weigh most).
+- ram_dps: the fastest move of the rudder the pilot reports (0x84 / 0x9C, whole degrees, about
+  2-5 Hz): a change of at least `ram_min_deg` in one direction over 0.8 .. 2.5 s. The fastest such
+  move is the ram's rate, or the pilot's own limit when its gain never asks more. stop_deg: the
+  largest rudder reported.
+
+A dozen floats, nothing allocated per step (MicroPython, small heap); times only through the
+caller's dt_s and ticks differences (ticks wrap)."""
+
+from trackpilot.compat import ticks_diff, wrap180
+
+_RAD = 3.141592653589793 / 180.0
+
+
+class TurnWatch:
+    def __init__(self, min_s=4.0, min_turn_deg=20.0, keep=4, ram_min_deg=5.0):
+        self.min_s = min_s
+        self.min_turn_rad = min_turn_deg * _RAD
+        self.keep = keep
+        self.ram_min_deg = ram_min_deg
+        self.radius_m = 0.0  # 0: not measured
+        self.samples = 0
+        self.last_m = 0.0  # the last stretch's radius
+        self.last_sog_mps = 0.0  # its mean speed over ground
+        self.ram_dps = 0.0  # 0: no move seen yet
+        self.stop_deg = 0.0
+        self._seg_m = 0.0
+        self._seg_rad = 0.0
+        self._seg_s = 0.0
+        self._hdg = 0.0  # heading at the last limited step
+        self._in = False  # in a stretch
+        # the rudder reports of the last second or two (ring of ticks ms, whole degrees), since the
+        # last reversal of the rudder's direction
+        self._rt = [0] * 8
+        self._rd = [0] * 8
+        self._ri = 0  # next slot
+        self._rn = 0  # reports held
+        self._dir = 0
+
+    def forget(self):
+        """A new boat (configuration): the measurements start again."""
+        self.radius_m = 0.0
+        self.samples = 0
+        self.ram_dps = 0.0
+        self.stop_deg = 0.0
+        self.end()
+        self._rn = 0
+        self._dir = 0
+
+    def end(self):
+        """Drop the stretch in progress (a gap, a disengage)."""
+        self._seg_m = 0.0
+        self._seg_rad = 0.0
+        self._seg_s = 0.0
+        self._in = False
+
+    def step(self, dt_s, heading_deg, sog_mps, sign, limited):
+        """One epoch. sign: +1 / -1, the turn's direction; limited: the path asks more than the boat
+        gives. Returns the radius of a stretch that just closed (a new sample), else 0.0."""
+        if limited:
+            if self._in:
+                d = wrap180(heading_deg - self._hdg) * sign
+                self._seg_rad += d * _RAD
+                self._seg_m += sog_mps * dt_s
+                self._seg_s += dt_s
+            self._hdg = heading_deg
+            self._in = True
+            return 0.0
+        if not self._in:
+            return 0.0
+        r = 0.0
+        if self._seg_s >= self.min_s and self._seg_rad >= self.min_turn_rad:
+            r = self._seg_m / self._seg_rad
+            self.last_m = r
+            self.last_sog_mps = self._seg_m / self._seg_s
+            n = self.samples + 1 if self.samples < self.keep else self.keep
+            self.radius_m = r if self.samples == 0 else self.radius_m + (r - self.radius_m) / n
+            self.samples += 1
+        self.end()
+        return r
+
+    def rudder(self, t_ms, rudder_deg):
+        """A rudder report (each new one; repeats of the same report are ignored). Returns True when
+        the ram rate estimate rose."""
+        n = len(self._rt)
+        last = self._ri - 1 if self._ri > 0 else n - 1
+        if self._rn and t_ms == self._rt[last]:
+            return False
+        r = int(rudder_deg)
+        a = r if r >= 0 else -r
+        if a > self.stop_deg:
+            self.stop_deg = a
+        if self._rn:  # a reversal: the move before it does not count
+            d = r - self._rd[last]
+            if d * self._dir < 0:
+                self._rn = 0
+            if d != 0:
+                self._dir = 1 if d > 0 else -1
+        self._rt[self._ri] = t_ms
+        self._rd[self._ri] = r
+        self._ri = (self._ri + 1) % n
+        if self._rn < n:
+            self._rn += 1
+        # the newest report at least 0.8 s older, within the move (no reversal since)
+        best = 0.0
+        k = self._ri - 1
+        for _ in range(self._rn - 1):
+            k = k - 1 if k > 0 else n - 1
+            span_ms = ticks_diff(t_ms, self._rt[k])
+            if span_ms >= 800:
+                mv = r - self._rd[k]
+                if mv < 0:
+                    mv = -mv
+                if span_ms <= 2500 and mv >= self.ram_min_deg:
+                    best = mv * 1000.0 / span_ms
+                break
+        if best > self.ram_dps:
+            self.ram_dps = best
+            return True
+        return False
+
+    def rudder_now(self):
+        """The last rudder reported (whole degrees; 0 before any)."""
+        if not self._rn:
+            return 0
+        return self._rd[self._ri - 1 if self._ri > 0 else len(self._rd) - 1]
