@@ -91,12 +91,23 @@ def test_preview_lengthened_by_a_slow_ram():
     t.near(law._ram_lead(), 3.0, 1e-6)  # ram_lead_max_s
     law.configure({"ram_lead": 0.0})
     t.eq(law._ram_lead(), 0.0)
-    # fed through rudder_report: a 6 deg/s ram, stop unseen yet (< 15 deg): 30 deg assumed
+    # the rudder not yet driven to 20 deg: no move asked all of the ram, nothing added
+    law.configure({"ram_lead": 1.0})
+    law.turns.ram_dps = 6.0
+    law.turns.stop_deg = 14.0
+    t.eq(law._ram_lead(), 0.0)
+    # fed through rudder_report: a 6 deg/s ram, to 12 deg (not trusted), then on to 22 deg
     law = LosLaw()
-    for k in range(12):
+    for k in range(8):
         note = law.rudder_report(1000 + k * 250, int(k * 1.5), True)
     t.near(law.turns.ram_dps, 6.0, 1.0)
-    t.near(law._ram_lead_s, 30.0 * (1.0 / law.turns.ram_dps - 0.1), 1e-4)
+    t.eq(law._ram_lead_s, 0.0)
+    t.eq(note, "")
+    for k in range(8, 16):
+        note = law.rudder_report(1000 + k * 250, int(k * 1.5), True)
+    t.eq(law.turns.stop_deg, 22)
+    t.near(law._ram_lead_s, 22.0 * (1.0 / law.turns.ram_dps - 0.1), 1e-4)
+    t.true(note.startswith("rudder moves at") or law._ram_lead_s > 0.5, note)
     # not steering: nothing is taken
     law = LosLaw()
     for k in range(12):

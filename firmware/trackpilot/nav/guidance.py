@@ -29,6 +29,7 @@ _RAD = math.pi / 180.0
 _HALF_PI = math.pi * 0.5
 _CORNER_CACHE = 16  # planned corners kept (direct-mapped by waypoint index)
 _TRAIL_DEG = 10.0  # on an arc, the course made good trailing the path by more: the boat turns its widest
+_RAM_TRUST_DEG = 20.0  # the ram's rate is trusted once the rudder was driven this far
 _UTURN_SCAN = 200  # corners looked at ahead for a U-turn narrower than the boat turns
 
 
@@ -591,12 +592,14 @@ class LosLaw:
             self.turns.ram_dps, self.turns.stop_deg, self.preview_s + self._ram_lead_s)
 
     def _ram_lead(self):
-        """The ram's delay beyond the one preview_s was set for: ram_lead x rudder needed (the stop
-        seen, else 30 deg) x (1 / ram rate - 1 / ram_ref_dps), 0 .. ram_lead_max_s."""
+        """The ram's delay beyond the one preview_s was set for: ram_lead x rudder needed (the largest
+        rudder seen) x (1 / ram rate - 1 / ram_ref_dps), 0 .. ram_lead_max_s. Only once the rudder
+        has been driven to _RAM_TRUST_DEG: before that no move asked the ram for all it has (the
+        nominal boat's gentle first minutes read 6-7 deg/s of its 10)."""
         ram = self.turns.ram_dps
-        if self.ram_lead <= 0.0 or ram <= 0.0:
+        need = self.turns.stop_deg
+        if self.ram_lead <= 0.0 or ram <= 0.0 or need < _RAM_TRUST_DEG:
             return 0.0
-        need = self.turns.stop_deg if self.turns.stop_deg >= 15.0 else 30.0
         return _clip(self.ram_lead * need * (1.0 / ram - 1.0 / self.ram_ref_dps), 0.0, self.ram_lead_max_s)
 
     def _speed(self, prog, leg):

@@ -90,14 +90,15 @@ class TurnWatch:
 
     def rudder(self, t_ms, rudder_deg):
         """A rudder report (each new one; repeats of the same report are ignored). Returns True when
-        the ram rate estimate rose."""
+        the ram rate estimate or the largest rudder rose."""
         n = len(self._rt)
         last = self._ri - 1 if self._ri > 0 else n - 1
         if self._rn and t_ms == self._rt[last]:
             return False
         r = int(rudder_deg)
         a = r if r >= 0 else -r
-        if a > self.stop_deg:
+        rose = a > self.stop_deg
+        if rose:
             self.stop_deg = a
         if self._rn:  # a reversal: the move before it does not count
             d = r - self._rd[last]
@@ -126,7 +127,7 @@ class TurnWatch:
         if best > self.ram_dps:
             self.ram_dps = best
             return True
-        return False
+        return rose
 
     def rudder_now(self):
         """The last rudder reported (whole degrees; 0 before any)."""
