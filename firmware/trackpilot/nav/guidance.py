@@ -30,6 +30,7 @@ _HALF_PI = math.pi * 0.5
 _CORNER_CACHE = 16  # planned corners kept (direct-mapped by waypoint index)
 _TRAIL_DEG = 10.0  # on an arc, the course made good trailing the path by more: the boat turns its widest
 _RAM_TRUST_DEG = 20.0  # the ram's rate is trusted once the rudder was driven this far
+_STOP_SEEN_DEG = 15.0  # the largest rudder reported counts as the stop from this angle on
 _UTURN_SCAN = 200  # corners looked at ahead for a U-turn narrower than the boat turns
 
 
@@ -237,6 +238,7 @@ class LosLaw:
         self.beta_hat_rad = 0.0
         self._intercept_clamped = False
         self.swing.reset()
+        self.turns.end()
         if self.tau is not None:
             self.tau.reset()
         self.out.valid = False
@@ -248,7 +250,9 @@ class LosLaw:
         derived when first needed from the legs beside it (no per-waypoint lists)."""
         self._track = trk
         self._n = len(trk.waypoints)
-        self._want = max(self.round_factor * self.turn_radius_m, self._meas_want_m)
+        self._want = self.round_factor * self.turn_radius_m
+        if self.turn_margin > 0.0 and self._meas_want_m > self._want:
+            self._want = self._meas_want_m  # what the boat showed it turns at (a new track, a new plan)
         self._uturn_told = -1
         self._cache_k = [-1] * _CORNER_CACHE
         self._cache_c = [None] * _CORNER_CACHE
@@ -527,10 +531,10 @@ class LosLaw:
         s = self._arc_s
         # from an arc on, and past its end while the boat still trails the path (a short arc ends
         # before a slow boat has turned its turn)
-        if (arc_r > 0.0 or tw._in) and fix.vel_valid and not prog.finished:
+        if (arc_r > 0.0 or tw.in_stretch) and fix.vel_valid and not prog.finished:
             cmg = fix.heading_deg + (self.crab_f_deg if self.crab_ok else 0.0)
             trail = s * wrap180(prog.leg_bearing_deg + tan_rad / _RAD - cmg)
-            at_stop = self._rudder_ok and tw.stop_deg >= 15.0 and s * tw.rudder_now() >= tw.stop_deg - 1.0
+            at_stop = self._rudder_ok and tw.stop_deg >= _STOP_SEEN_DEG and s * tw.rudder_now() >= tw.stop_deg - 1.0
             limited = trail > _TRAIL_DEG or at_stop
         if not tw.step(dt_s, fix.heading_deg, fix.sog_mps if fix.vel_valid else 0.0, s, limited):
             return

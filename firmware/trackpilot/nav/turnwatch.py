@@ -37,7 +37,7 @@ class TurnWatch:
         self._seg_rad = 0.0
         self._seg_s = 0.0
         self._hdg = 0.0  # heading at the last limited step
-        self._in = False  # in a stretch
+        self.in_stretch = False  # a limited stretch is being measured
         # the rudder reports of the last second or two (ring of ticks ms, whole degrees), since the
         # last reversal of the rudder's direction
         self._rt = [0] * 8
@@ -46,36 +46,26 @@ class TurnWatch:
         self._rn = 0  # reports held
         self._dir = 0
 
-    def forget(self):
-        """A new boat (configuration): the measurements start again."""
-        self.radius_m = 0.0
-        self.samples = 0
-        self.ram_dps = 0.0
-        self.stop_deg = 0.0
-        self.end()
-        self._rn = 0
-        self._dir = 0
-
     def end(self):
         """Drop the stretch in progress (a gap, a disengage)."""
         self._seg_m = 0.0
         self._seg_rad = 0.0
         self._seg_s = 0.0
-        self._in = False
+        self.in_stretch = False
 
     def step(self, dt_s, heading_deg, sog_mps, sign, limited):
         """One epoch. sign: +1 / -1, the turn's direction; limited: the path asks more than the boat
         gives. Returns the radius of a stretch that just closed (a new sample), else 0.0."""
         if limited:
-            if self._in:
+            if self.in_stretch:
                 d = wrap180(heading_deg - self._hdg) * sign
                 self._seg_rad += d * _RAD
                 self._seg_m += sog_mps * dt_s
                 self._seg_s += dt_s
             self._hdg = heading_deg
-            self._in = True
+            self.in_stretch = True
             return 0.0
-        if not self._in:
+        if not self.in_stretch:
             return 0.0
         r = 0.0
         if self._seg_s >= self.min_s and self._seg_rad >= self.min_turn_rad:
