@@ -79,35 +79,54 @@ def test_ram_rate_from_the_reported_rudder():
     t.near(w.ram_dps, 8.0, 1.2)
 
 
+def _lead(law):
+    law.turns.set_lead(law.ram_lead, law.ram_ref_dps)
+    return law.turns.lead_s
+
+
 def test_preview_lengthened_by_a_slow_ram():
     law = LosLaw()
-    t.eq(law._ram_lead(), 0.0)  # nothing measured: preview_s as set
+    t.eq(_lead(law), 0.0)  # nothing measured: preview_s as set
     law.turns.ram_dps = 7.5
     law.turns.stop_deg = 29.0
-    t.near(law._ram_lead(), 29.0 * (1.0 / 7.5 - 1.0 / 10.0), 1e-4)  # 0.97 s
+    t.near(_lead(law), 29.0 * (1.0 / 7.5 - 1.0 / 10.0), 1e-4)  # 0.97 s
     law.turns.ram_dps = 12.0
-    t.eq(law._ram_lead(), 0.0)  # faster than the reference: as set (never shorter)
+    t.eq(_lead(law), 0.0)  # faster than the reference: as set (never shorter)
     law.turns.ram_dps = 4.0
-    t.near(law._ram_lead(), 3.0, 1e-6)  # ram_lead_max_s
+    t.near(_lead(law), 3.0, 1e-6)  # RAM_LEAD_MAX_S
     law.configure({"ram_lead": 0.0})
-    t.eq(law._ram_lead(), 0.0)
+    t.eq(_lead(law), 0.0)
     # the rudder not yet driven to 20 deg: no move asked all of the ram, nothing added
     law.configure({"ram_lead": 1.0})
     law.turns.ram_dps = 6.0
     law.turns.stop_deg = 14.0
-    t.eq(law._ram_lead(), 0.0)
+    t.eq(_lead(law), 0.0)
     # fed through rudder_report: a 6 deg/s ram, to 12 deg (not trusted), then on to 22 deg
     law = LosLaw()
     for k in range(8):
         note = law.rudder_report(1000 + k * 250, int(k * 1.5), True)
     t.near(law.turns.ram_dps, 6.0, 1.0)
-    t.eq(law._ram_lead_s, 0.0)
+    t.eq(law.turns.lead_s, 0.0)
     t.eq(note, "")
+    notes = []
     for k in range(8, 16):
-        note = law.rudder_report(1000 + k * 250, int(k * 1.5), True)
+        notes.append(law.rudder_report(1000 + k * 250, int(k * 1.5), True))
     t.eq(law.turns.stop_deg, 22)
-    t.near(law._ram_lead_s, 22.0 * (1.0 / law.turns.ram_dps - 0.1), 1e-4)
-    t.true(note.startswith("rudder moves at") or law._ram_lead_s > 0.5, note)
+    t.near(law.turns.lead_s, 22.0 * (1.0 / law.turns.ram_dps - 0.1), 1e-4)
+    t.true([n for n in notes if n.startswith("rudder moves at")], repr(notes))
+    # the step's preview distance grows by U x lead: the same point sees more of the turn ahead
+    trk = _zigzag()
+    from _navtracks import make_fix
+
+    b = math.radians(30.0)
+    f = make_fix(45.0 * math.sin(b), 45.0 * math.cos(b), 30.0, sog_mps=2.0)
+    p0 = Progress(trk)
+    p0.update(f.lat_e7, f.lon_e7, f.lat_hp, f.lon_hp)
+    plain = LosLaw().step(f, p0, 0.2).preview_deg
+    t.eq(plain, 0.0)  # 7.2 m before the arc: beyond 3.5 s x 2 m/s
+    p1 = Progress(trk)
+    p1.update(f.lat_e7, f.lon_e7, f.lat_hp, f.lon_hp)
+    t.true(law.step(f, p1, 0.2).preview_deg < -1.0)  # 3.5 + 1.5 s: the turn to port is seen
     # not steering: nothing is taken
     law = LosLaw()
     for k in range(12):
@@ -127,10 +146,10 @@ def _zigzag():
     return track_from_m(pts)
 
 
-def _sail(law, trk, max_rate_dps, seconds=140.0, dt_s=0.2):
+def _sail(law, trk, max_rate_dps, seconds=140.0, dt_s=0.2, heading0_deg=30.0):
     prog = Progress(trk)
-    boat = Boat(0.0, 0.0, 30.0, 2.0, max_rate_dps=max_rate_dps)
-    fix = boat.step(30.0, 0.0)
+    boat = Boat(0.0, 0.0, heading0_deg, 2.0, max_rate_dps=max_rate_dps)
+    fix = boat.step(heading0_deg, 0.0)
     law.reset()
     notes = []
     for _ in range(int(seconds / dt_s)):
@@ -157,6 +176,7 @@ def test_arcs_follow_the_boat():
     # the later corners are planned at turn_margin x the measured radius; legs of 60 m allow it
     t.near(law.corner_radius_m(3), 1.2 * r, 0.05)
     t.near(law._want, 1.2 * r, 1e-4)
+    t.near(law.turns.want_m, 1.2 * r, 1e-4)
     # a boat that turns its arcs (10 deg/s: 11.5 m < 13.5 m) never asks for more
     law = LosLaw()
     notes = _sail(law, trk, 10.0)
@@ -173,7 +193,7 @@ def test_new_radius_waits_for_a_straight():
     trk = _zigzag()
     law = LosLaw()
     law.plan(trk)
-    law._pending_want_m = 30.0
+    law.turns.pending_m = 30.0
     # on the first arc (the corner at waypoint 1 starts 60 - 13.5 tan 30 = 52.2 m along leg 0)
     prog = Progress(trk)
     from _navtracks import make_fix
@@ -184,7 +204,7 @@ def test_new_radius_waits_for_a_straight():
     out = law.step(f, prog, 0.2)
     t.true(out.arc_radius_m > 0.0)
     t.near(law._want, 13.5, 1e-6)  # not applied on the arc
-    t.eq(law._pending_want_m, 30.0)
+    t.eq(law.turns.pending_m, 30.0)
     # on the straight of leg 1, 30 m along: 30 m arcs need 17.3 m of tangent, the corner behind
     # grows past the boat? 30 > 17.3: no, so it applies
     e1, n1 = 60.0 * math.sin(b), 60.0 * math.cos(b)
@@ -193,7 +213,7 @@ def test_new_radius_waits_for_a_straight():
     out = law.step(f, prog, 0.2)
     t.eq(prog.leg, 1)
     t.near(law._want, 30.0, 1e-6)
-    t.eq(law._pending_want_m, 0.0)
+    t.eq(law.turns.pending_m, 0.0)
     t.near(law.corner_radius_m(2), 30.0, 0.01)
 
 
@@ -208,13 +228,24 @@ def test_narrow_uturn_reported():
     t.eq([x for x in track.validate(trk, {"turn_radius_m": 9.0}) if "U-turn" in x], [])
     # a zig-zag (turns alternate) is no U-turn
     t.eq(track.uturn_width_m(_zigzag(), 1), 0.0)
-    # the law tells it once the boat has shown a radius over half the width
+    # the first one ahead of a leg, narrower than a width asked
+    t.eq(track.narrow_uturn(trk, 0, 28.0), (1, track.uturn_width_m(trk, 1)))
+    t.eq(track.narrow_uturn(trk, 0, 18.0), (0, 0.0))
+    t.eq(track.narrow_uturn(trk, 2, 28.0), (0, 0.0))  # passed
+
+
+def test_narrow_uturn_told_in_auto():
+    # lawnmower: 4 lines of 60 m, 20 m apart; a boat turning at most 4 deg/s at 2 m/s (28.6 m)
+    pts = [(0, 0, 2.0), (0, 60, 2.0), (20, 60, 2.0), (20, 0, 2.0), (40, 0, 2.0), (40, 60, 2.0)]
+    trk = track_from_m(pts)
     law = LosLaw()
-    law.plan(trk)
-    note = law._narrow_uturn(0, 14.0)
-    t.true("U-turn at wp 1" in note and "20 m wide" in note and "2 x 14.0 m" in note, note)
-    t.eq(law._narrow_uturn(0, 14.5), "")  # once
-    t.eq(LosLaw()._narrow_uturn.__name__, "_narrow_uturn")
-    law2 = LosLaw()
-    law2.plan(trk)
-    t.eq(law2._narrow_uturn(0, 9.0), "")
+    notes = _sail(law, trk, 4.0, seconds=200.0, heading0_deg=0.0)
+    told = [n for n in notes if "U-turn at" in n]
+    # measured on the first U-turn, told for the next one (wp 3), once
+    t.eq(len(told), 1, repr(notes))
+    t.true("U-turn at wp 3" in told[0] and "20 m wide" in told[0], told[0])
+    t.true(law.turns.radius_m > 10.0, law.turns.radius_m)
+    # off (turn_margin 0): nothing measured, nothing told
+    law = LosLaw(turn_margin=0.0)
+    notes = _sail(law, trk, 4.0, seconds=200.0, heading0_deg=0.0)
+    t.eq([n for n in notes if "U-turn at" in n], [])

@@ -29,9 +29,7 @@ _RAD = math.pi / 180.0
 _HALF_PI = math.pi * 0.5
 _CORNER_CACHE = 16  # planned corners kept (direct-mapped by waypoint index)
 _TRAIL_DEG = 10.0  # on an arc, the course made good trailing the path by more: the boat turns its widest
-_RAM_TRUST_DEG = 20.0  # the ram's rate is trusted once the rudder was driven this far
 _STOP_SEEN_DEG = 15.0  # the largest rudder reported counts as the stop from this angle on
-_UTURN_SCAN = 200  # corners looked at ahead for a U-turn narrower than the boat turns
 
 
 class GuidanceOut:
@@ -188,7 +186,6 @@ class LosLaw:
         "turn_margin": (1.2, "1", 0.0, 3.0, "arcs planned at least this x the radius the boat achieved (0 = off)"),
         "ram_lead": (1.0, "1", 0.0, 3.0, "preview lengthened by this x the ram's extra delay (0 = off)"),
         "ram_ref_dps": (10.0, "deg/s", 1.0, 60.0, "the ram rate preview_s was set for"),
-        "ram_lead_max_s": (3.0, "s", 0.0, 10.0, "largest lengthening of the preview by the ram's delay"),
     }
 
     def __init__(self, **params):
@@ -209,14 +206,9 @@ class LosLaw:
         self.tau_scale = 1.0
         self._tau_logged_s = 0.0
         self._on_straight = False
-        # what the boat achieves in turns (nav/turnwatch.py): the boat's, so it outlives reset()
+        # what the boat achieves in turns (nav/turnwatch.py; its state lives there: the ESP32 heap
+        # keeps this object's attribute table small): the boat's, so it outlives reset()
         self.turns = TurnWatch()
-        self._meas_want_m = 0.0  # arc radius the measured turn asks (margin x radius), applied
-        self._pending_want_m = 0.0  # asked, waiting for a straight to apply it
-        self._arc_s = 0.0  # the turn's sign on the arc _path found
-        self._rudder_ok = False
-        self._ram_lead_s = 0.0
-        self._uturn_told = -1  # the last corner a narrow U-turn was reported at
         self.reset()
 
     def configure(self, params):
@@ -230,7 +222,7 @@ class LosLaw:
             self.tau.window_s = self.tau_window_s
             self.tau.restart()
         self.tau_scale = 1.0
-        self._ram_lead_s = self._ram_lead()
+        self.turns.set_lead(self.ram_lead, self.ram_ref_dps)
 
     def reset(self):
         self.crab_f_deg = 0.0
@@ -251,9 +243,9 @@ class LosLaw:
         self._track = trk
         self._n = len(trk.waypoints)
         self._want = self.round_factor * self.turn_radius_m
-        if self.turn_margin > 0.0 and self._meas_want_m > self._want:
-            self._want = self._meas_want_m  # what the boat showed it turns at (a new track, a new plan)
-        self._uturn_told = -1
+        if self.turn_margin > 0.0 and self.turns.want_m > self._want:
+            self._want = self.turns.want_m  # what the boat showed it turns at (a new track, a new plan)
+        self.turns.uturn_told = -1
         self._cache_k = [-1] * _CORNER_CACHE
         self._cache_c = [None] * _CORNER_CACHE
 
@@ -358,7 +350,7 @@ class LosLaw:
             if s * tan > s * th:  # past the arc, progress still on this leg: next leg's line
                 return th, self._line_xte(a, x, length, 0.0, th), self._preview_rad(1, k, self._straight(k), p), 0.0
             rem = th_k - s * tan
-            self._arc_s = s
+            self.turns.sign = s
             return tan, s * (r - math.sqrt(dx * dx + dy * dy)), self._preview_rad(0, k, rem, p), r
         if t_start > 0.0 and a <= t_start:
             k = i
@@ -371,7 +363,7 @@ class LosLaw:
                 return 0.0, x, self._preview_rad(1, i, t_start + self._straight(i) - a, p), 0.0
             if s * tan < -s * th:  # before the arc: the previous leg's line
                 return -th, self._line_xte(a, x, 0.0, 0.0, -th), self._preview_rad(0, k, th_k, p), 0.0
-            self._arc_s = s
+            self.turns.sign = s
             return tan, s * (r - math.sqrt(dx * dx + dy * dy)), self._preview_rad(0, k, -s * tan, p), r
         rem = length - t_end - a
         if rem < 0.0:
@@ -403,11 +395,11 @@ class LosLaw:
                 self.crab_f_deg += (c - self.crab_f_deg) * (dt_s / (self.crab_tc_s + dt_s))
         la = _clip(self.lookahead_gain * u_eff * self.heading_tc_s, self.lookahead_min_m,
                    self.lookahead_max_m) * self.tau_scale * self.la_scale
-        p_m = u_eff * (self.preview_s + self._ram_lead_s)  # the ram's own delay on top
+        p_m = u_eff * (self.preview_s + self.turns.lead_s)  # the ram's own delay on top
         tan_rad, y, prev_rad, arc_r = self._path(prog, p_m)
         out.note = ""
         self._on_straight = arc_r == 0.0 and -0.035 < prev_rad < 0.035 and not prog.finished
-        if self._pending_want_m > 0.0 and self._on_straight:
+        if self.turns.pending_m > 0.0 and self._on_straight:
             r = self._replan(prog, p_m)
             if r is not None:
                 tan_rad, y, prev_rad, arc_r = r
@@ -518,93 +510,75 @@ class LosLaw:
             what = "lookahead x%.2f, clip %.0f deg" % (self.la_scale, self.clip_deg * self.clip_scale)
         else:
             what = "at its limits"
-        self._add_note("xte swings +-%.1f m, period %.0f s: %s" % (self.swing.amp, period_s, what))
+        text = "xte swings +-%.1f m, period %.0f s: %s" % (self.swing.amp, period_s, what)
+        self.out.note = text if not self.out.note else self.out.note + "; " + text
 
     # ---- what the boat achieves in turns (docs/NAVIGATION.md "Fourth round") ----
     def _turn_watch(self, fix, prog, dt_s, arc_r, tan_rad):
         """Measure the radius the boat turns at while an arc asks more than it gives (the course
         made good trailing the path by > _TRAIL_DEG, or the rudder at its stop; from the arc until
         the boat has caught up with the path), and ask for later arcs no tighter than turn_margin x
-        that."""
+        that; tell a U-turn ahead narrower than twice that."""
         tw = self.turns
         limited = False
-        s = self._arc_s
+        s = tw.sign
         # from an arc on, and past its end while the boat still trails the path (a short arc ends
         # before a slow boat has turned its turn)
         if (arc_r > 0.0 or tw.in_stretch) and fix.vel_valid and not prog.finished:
             cmg = fix.heading_deg + (self.crab_f_deg if self.crab_ok else 0.0)
             trail = s * wrap180(prog.leg_bearing_deg + tan_rad / _RAD - cmg)
-            at_stop = self._rudder_ok and tw.stop_deg >= _STOP_SEEN_DEG and s * tw.rudder_now() >= tw.stop_deg - 1.0
+            at_stop = tw.rudder_ok and tw.stop_deg >= _STOP_SEEN_DEG and s * tw.rudder_now() >= tw.stop_deg - 1.0
             limited = trail > _TRAIL_DEG or at_stop
         if not tw.step(dt_s, fix.heading_deg, fix.sog_mps if fix.vel_valid else 0.0, s, limited):
             return
         want = self.turn_margin * tw.radius_m
-        have = self._want if self._pending_want_m <= 0.0 else self._pending_want_m
-        if want > have * 1.05 or (self._meas_want_m > 0.0 and want < have * 0.95):
-            self._pending_want_m = want
-        base = self.round_factor * self.turn_radius_m
+        have = self._want if tw.pending_m <= 0.0 else tw.pending_m
+        if want > have * 1.05 or (tw.want_m > 0.0 and want < have * 0.95):
+            tw.pending_m = want
         text = "turned at %.1f m at %.1f m/s (mean %.1f m of %d): arcs %.1f m" % (
-            tw.last_m, tw.last_sog_mps, tw.radius_m, tw.samples, max(base, want))
-        self._add_note(text + self._narrow_uturn(prog.leg, tw.radius_m))
+            tw.last_m, tw.last_sog_mps, tw.radius_m, tw.samples,
+            max(self.round_factor * self.turn_radius_m, want))
+        from trackpilot.nav.track import narrow_uturn
+
+        k, w = narrow_uturn(self._track, prog.leg, 2.0 * tw.radius_m)
+        if k > 0 and k != tw.uturn_told:  # once per U-turn
+            tw.uturn_told = k
+            text += "; U-turn at %s %.0f m wide, the boat turns 2 x %.1f m: expect %.1f m past it" % (
+                self._track.waypoints[k].label(k), w, tw.radius_m, 2.0 * tw.radius_m - w)
+        self.out.note = text if not self.out.note else self.out.note + "; " + text
 
     def _replan(self, prog, p_m):
         """Apply the asked arc radius on a straight; kept only if the boat stays on the straight
         of the new plan (the corner behind grows too). Returns the new _path or None."""
-        old_want, old_meas = self._want, self._meas_want_m
-        self._meas_want_m = self._pending_want_m
-        self._want = max(self.round_factor * self.turn_radius_m, self._meas_want_m)
+        tw = self.turns
+        old_want, old_meas = self._want, tw.want_m
+        tw.want_m = tw.pending_m
+        self._want = max(self.round_factor * self.turn_radius_m, tw.want_m)
         self._cache_k = [-1] * _CORNER_CACHE
         r = self._path(prog, p_m)
         if r[3] == 0.0 and -0.035 < r[2] < 0.035:
-            self._pending_want_m = 0.0
+            tw.pending_m = 0.0
             return r
-        self._want, self._meas_want_m = old_want, old_meas  # not here: the next straight
+        self._want, tw.want_m = old_want, old_meas  # not here: the next straight
         self._cache_k = [-1] * _CORNER_CACHE
         return None
 
-    def _narrow_uturn(self, leg, radius_m):
-        """", U-turn at ... narrower than 2 x radius_m" for the first such U-turn ahead, once."""
-        from trackpilot.nav.track import uturn_width_m
-
-        trk = self._track
-        for k in range(max(1, leg), min(self._n - 2, leg + _UTURN_SCAN)):
-            w = uturn_width_m(trk, k)
-            if 0.0 < w < 2.0 * radius_m:
-                if k == self._uturn_told:
-                    return ""
-                self._uturn_told = k
-                return "; U-turn at %s %.0f m wide, the boat turns 2 x %.1f m: expect %.1f m past it" % (
-                    trk.waypoints[k].label(k), w, radius_m, 2.0 * radius_m - w)
-        return ""
-
-    def _add_note(self, text):
-        self.out.note = text if not self.out.note else self.out.note + "; " + text
-
     def rudder_report(self, t_ms, rudder_deg, ok):
         """The pilot's reported rudder (0x84 / 0x9C; t_ms: when it came), while steering (ok). The
-        fastest move sets the ram's delay the preview adds. Returns a note or ""."""
-        self._rudder_ok = ok and t_ms is not None and rudder_deg is not None
-        if not self._rudder_ok or self.ram_lead <= 0.0:
+        fastest move sets the ram's delay the preview adds (TurnWatch.set_lead). Returns a note or
+        ""."""
+        tw = self.turns
+        tw.rudder_ok = ok and t_ms is not None and rudder_deg is not None
+        if not tw.rudder_ok or self.ram_lead <= 0.0:
             return ""
-        if not self.turns.rudder(t_ms, rudder_deg):
+        if not tw.rudder(t_ms, rudder_deg):
             return ""
-        old = self._ram_lead_s
-        self._ram_lead_s = self._ram_lead()
-        if -0.1 < self._ram_lead_s - old < 0.1:
+        old = tw.lead_s
+        tw.set_lead(self.ram_lead, self.ram_ref_dps)
+        if -0.1 < tw.lead_s - old < 0.1:
             return ""  # logged when the lead moves by 0.1 s
         return "rudder moves at %.1f deg/s (stop %.0f deg): preview %.1f s" % (
-            self.turns.ram_dps, self.turns.stop_deg, self.preview_s + self._ram_lead_s)
-
-    def _ram_lead(self):
-        """The ram's delay beyond the one preview_s was set for: ram_lead x rudder needed (the largest
-        rudder seen) x (1 / ram rate - 1 / ram_ref_dps), 0 .. ram_lead_max_s. Only once the rudder
-        has been driven to _RAM_TRUST_DEG: before that no move asked the ram for all it has (the
-        nominal boat's gentle first minutes read 6-7 deg/s of its 10)."""
-        ram = self.turns.ram_dps
-        need = self.turns.stop_deg
-        if self.ram_lead <= 0.0 or ram <= 0.0 or need < _RAM_TRUST_DEG:
-            return 0.0
-        return _clip(self.ram_lead * need * (1.0 / ram - 1.0 / self.ram_ref_dps), 0.0, self.ram_lead_max_s)
+            tw.ram_dps, tw.stop_deg, self.preview_s + tw.lead_s)
 
     def _speed(self, prog, leg):
         """The leg's speed, eased towards the next leg's before the waypoint (surge lag), and

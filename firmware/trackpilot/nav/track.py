@@ -439,6 +439,16 @@ def uturn_width_m(trk, k):
     return legs[k].length_m * abs(math.sin(math.radians(a)))
 
 
+def narrow_uturn(trk, leg, min_width_m, ahead=200):
+    """(k, width_m) of the first U-turn narrower than min_width_m at waypoint k from leg `leg` on
+    (at most `ahead` corners looked at), (0, 0.0) if none."""
+    for k in range(max(1, leg), min(len(trk.waypoints) - 2, leg + ahead)):
+        w = uturn_width_m(trk, k)
+        if 0.0 < w < min_width_m:
+            return k, w
+    return 0, 0.0
+
+
 def corner_tangent_m(turn_deg, radius_m):
     """Distance from the waypoint to where that circle touches each leg: R tan(theta/2)."""
     a = abs(turn_deg)

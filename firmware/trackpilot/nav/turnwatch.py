@@ -19,6 +19,8 @@ caller's dt_s and ticks differences (ticks wrap)."""
 from trackpilot.compat import ticks_diff, wrap180
 
 _RAD = 3.141592653589793 / 180.0
+RAM_TRUST_DEG = 20.0  # the ram's rate is trusted once the rudder was driven this far
+RAM_LEAD_MAX_S = 3.0  # the largest lengthening of the preview by the ram's delay
 
 
 class TurnWatch:
@@ -38,6 +40,13 @@ class TurnWatch:
         self._seg_s = 0.0
         self._hdg = 0.0  # heading at the last limited step
         self.in_stretch = False  # a limited stretch is being measured
+        # what the los law keeps here (LosLaw's own attribute table stays small on the ESP32 heap)
+        self.sign = 0.0  # the turn's direction on the arc last found (+1 starboard)
+        self.want_m = 0.0  # arc radius the measurement asks (margin x radius), applied
+        self.pending_m = 0.0  # asked, waiting for a straight
+        self.lead_s = 0.0  # the preview added for the ram's delay
+        self.rudder_ok = False  # the rudder reports are fresh and the pilot steers
+        self.uturn_told = -1  # the last corner a narrow U-turn was told at
         # the rudder reports of the last second or two (ring of ticks ms, whole degrees), since the
         # last reversal of the rudder's direction
         self._rt = [0] * 8
@@ -124,3 +133,16 @@ class TurnWatch:
         if not self._rn:
             return 0
         return self._rd[self._ri - 1 if self._ri > 0 else len(self._rd) - 1]
+
+    def set_lead(self, gain, ref_dps):
+        """lead_s: the ram's delay beyond the one the preview was set for: gain x rudder needed (the
+        largest rudder seen) x (1 / ram rate - 1 / ref_dps), 0 .. RAM_LEAD_MAX_S. Only once the
+        rudder has been driven to RAM_TRUST_DEG: before that no move asked the ram for all it has
+        (the nominal boat's gentle first minutes on the example loop read 6-7 deg/s of its 10)."""
+        ram = self.ram_dps
+        need = self.stop_deg
+        if gain <= 0.0 or ram <= 0.0 or need < RAM_TRUST_DEG:
+            self.lead_s = 0.0
+            return
+        v = gain * need * (1.0 / ram - 1.0 / ref_dps)
+        self.lead_s = 0.0 if v < 0.0 else (RAM_LEAD_MAX_S if v > RAM_LEAD_MAX_S else v)
