@@ -6,10 +6,10 @@ follow"):
 - radius_m: the radius it turns at while the path asks more than it gives (the caller says when:
   on an arc with the heading trailing the path, or the rudder at its stop). Over such a stretch the
   distance sailed over the heading turned (SOG / yaw rate, integrated, so GNSS heading noise
-  averages out); a stretch counts from `min_s` seconds and `min_turn_deg` degrees. The estimate is
-  the mean of the stretches (the last `keep` weigh most).
+  averages out); a stretch counts from 4 s and 20 deg. The estimate is the mean of the stretches
+  (the last four weigh most).
 - ram_dps: the fastest move of the rudder the pilot reports (0x84 / 0x9C, whole degrees, about
-  2-5 Hz): a change of at least `ram_min_deg` in one direction over 0.8 .. 2.5 s. The fastest such
+  2-5 Hz): a change of at least 5 deg in one direction over 0.8 .. 2.5 s. The fastest such
   move is the ram's rate, or the pilot's own limit when its gain never asks more. stop_deg: the
   largest rudder reported.
 
@@ -19,16 +19,17 @@ caller's dt_s and ticks differences (ticks wrap)."""
 from trackpilot.compat import ticks_diff, wrap180
 
 _RAD = 3.141592653589793 / 180.0
+_MIN_S = 4.0  # a stretch counts from this long ...
+_MIN_TURN_RAD = 20.0 * _RAD  # ... and this much turned
+_KEEP = 4  # the radius: the mean of the stretches, the last _KEEP weighing most
+_RAM_MIN_DEG = 5  # a rudder move counts from this many degrees
+_RING = 8  # rudder reports kept (about 2 s at 4 Hz)
 RAM_TRUST_DEG = 20.0  # the ram's rate is trusted once the rudder was driven this far
 RAM_LEAD_MAX_S = 3.0  # the largest lengthening of the preview by the ram's delay
 
 
 class TurnWatch:
-    def __init__(self, min_s=4.0, min_turn_deg=20.0, keep=4, ram_min_deg=5.0):
-        self.min_s = min_s
-        self.min_turn_rad = min_turn_deg * _RAD
-        self.keep = keep
-        self.ram_min_deg = ram_min_deg
+    def __init__(self):
         self.radius_m = 0.0  # 0: not measured
         self.samples = 0
         self.last_m = 0.0  # the last stretch's radius
@@ -47,10 +48,9 @@ class TurnWatch:
         self.lead_s = 0.0  # the preview added for the ram's delay
         self.rudder_ok = False  # the rudder reports are fresh and the pilot steers
         self.uturn_told = -1  # the last corner a narrow U-turn was told at
-        # the rudder reports of the last second or two (ring of ticks ms, whole degrees), since the
-        # last reversal of the rudder's direction
-        self._rt = [0] * 8
-        self._rd = [0] * 8
+        # the rudder reports of the last second or two since the last reversal of the rudder's
+        # direction: ring of (ticks ms, whole degrees) pairs, one list
+        self._r = [0] * (2 * _RING)
         self._ri = 0  # next slot
         self._rn = 0  # reports held
         self._dir = 0
@@ -77,11 +77,11 @@ class TurnWatch:
         if not self.in_stretch:
             return 0.0
         r = 0.0
-        if self._seg_s >= self.min_s and self._seg_rad >= self.min_turn_rad:
+        if self._seg_s >= _MIN_S and self._seg_rad >= _MIN_TURN_RAD:
             r = self._seg_m / self._seg_rad
             self.last_m = r
             self.last_sog_mps = self._seg_m / self._seg_s
-            n = self.samples + 1 if self.samples < self.keep else self.keep
+            n = self.samples + 1 if self.samples < _KEEP else _KEEP
             self.radius_m = r if self.samples == 0 else self.radius_m + (r - self.radius_m) / n
             self.samples += 1
         self.end()
@@ -90,9 +90,9 @@ class TurnWatch:
     def rudder(self, t_ms, rudder_deg):
         """A rudder report (each new one; repeats of the same report are ignored). Returns True when
         the ram rate estimate or the largest rudder rose."""
-        n = len(self._rt)
+        n = _RING
         last = self._ri - 1 if self._ri > 0 else n - 1
-        if self._rn and t_ms == self._rt[last]:
+        if self._rn and t_ms == self._r[2 * last]:
             return False
         r = int(rudder_deg)
         a = r if r >= 0 else -r
@@ -100,13 +100,13 @@ class TurnWatch:
         if rose:
             self.stop_deg = a
         if self._rn:  # a reversal: the move before it does not count
-            d = r - self._rd[last]
+            d = r - self._r[2 * last + 1]
             if d * self._dir < 0:
                 self._rn = 0
             if d != 0:
                 self._dir = 1 if d > 0 else -1
-        self._rt[self._ri] = t_ms
-        self._rd[self._ri] = r
+        self._r[2 * self._ri] = t_ms
+        self._r[2 * self._ri + 1] = r
         self._ri = (self._ri + 1) % n
         if self._rn < n:
             self._rn += 1
@@ -115,12 +115,12 @@ class TurnWatch:
         k = self._ri - 1
         for _ in range(self._rn - 1):
             k = k - 1 if k > 0 else n - 1
-            span_ms = ticks_diff(t_ms, self._rt[k])
+            span_ms = ticks_diff(t_ms, self._r[2 * k])
             if span_ms >= 800:
-                mv = r - self._rd[k]
+                mv = r - self._r[2 * k + 1]
                 if mv < 0:
                     mv = -mv
-                if span_ms <= 2500 and mv >= self.ram_min_deg:
+                if span_ms <= 2500 and mv >= _RAM_MIN_DEG:
                     best = mv * 1000.0 / span_ms
                 break
         if best > self.ram_dps:
@@ -132,7 +132,7 @@ class TurnWatch:
         """The last rudder reported (whole degrees; 0 before any)."""
         if not self._rn:
             return 0
-        return self._rd[self._ri - 1 if self._ri > 0 else len(self._rd) - 1]
+        return self._r[2 * (self._ri - 1 if self._ri > 0 else _RING - 1) + 1]
 
     def set_lead(self, gain, ref_dps):
         """lead_s: the ram's delay beyond the one the preview was set for: gain x rudder needed (the
