@@ -219,17 +219,18 @@ def test_new_radius_waits_for_a_straight():
 
 def test_narrow_uturn_reported():
     trk = track_from_m([(0, 0, 2.0), (0, 200, 1.5), (20, 200, 1.5), (20, 0, 1.5)])
-    t.near(track.uturn_width_m(trk, 1), 20.0, 0.01)
-    t.eq(track.uturn_width_m(trk, 2), 0.0)  # the last corner has no second one
+    k, w = track.narrow_uturn(trk, 0, 28.0)
+    t.eq(k, 1)
+    t.near(w, 20.0, 0.01)
+    t.eq(track.narrow_uturn(trk, 2, 100.0), (0, 0.0))  # the last corner has no second one
     w = track.validate(trk, {"turn_radius_m": 12.0})
     u = [x for x in w if "U-turn" in x]
     t.eq(len(u), 1, repr(w))
     t.true("U-turn 20.0 m wide" in u[0] and "2 x 12.0 m" in u[0] and "4.0 m past" in u[0], u[0])
     t.eq([x for x in track.validate(trk, {"turn_radius_m": 9.0}) if "U-turn" in x], [])
     # a zig-zag (turns alternate) is no U-turn
-    t.eq(track.uturn_width_m(_zigzag(), 1), 0.0)
+    t.eq(track.narrow_uturn(_zigzag(), 0, 100.0), (0, 0.0))
     # the first one ahead of a leg, narrower than a width asked
-    t.eq(track.narrow_uturn(trk, 0, 28.0), (1, track.uturn_width_m(trk, 1)))
     t.eq(track.narrow_uturn(trk, 0, 18.0), (0, 0.0))
     t.eq(track.narrow_uturn(trk, 2, 28.0), (0, 0.0))  # passed
 

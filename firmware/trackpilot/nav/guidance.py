@@ -540,7 +540,7 @@ class LosLaw:
             max(self.round_factor * self.turn_radius_m, want))
         from trackpilot.nav.track import narrow_uturn
 
-        k, w = narrow_uturn(self._track, prog.leg, 2.0 * tw.radius_m)
+        k, w = narrow_uturn(self._track, prog.leg, 2.0 * tw.radius_m, 200)
         if k > 0 and k != tw.uturn_told:  # once per U-turn
             tw.uturn_told = k
             text += "; U-turn at %s %.0f m wide, the boat turns 2 x %.1f m: expect %.1f m past it" % (
