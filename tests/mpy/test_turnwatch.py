@@ -215,6 +215,21 @@ def test_new_radius_waits_for_a_straight():
     t.near(law._want, 30.0, 1e-6)
     t.eq(law.turns.pending_m, 0.0)
     t.near(law.corner_radius_m(2), 30.0, 0.01)
+    # 12 m into leg 1 with 40 m asked: the corner behind would start 40 tan 30 = 23.1 m into the
+    # leg, the boat would be back on its arc: refused, still pending, the plan as it was
+    law = LosLaw()
+    law.plan(trk)
+    law.turns.pending_m = 40.0
+    prog = Progress(trk)
+    prog.update(f.lat_e7, f.lon_e7, f.lat_hp, f.lon_hp)  # the point above first: leg 1
+    f = make_fix(e1 + 12.0 * math.sin(-b), n1 + 12.0 * math.cos(-b), -30.0, sog_mps=2.0)
+    prog.update(f.lat_e7, f.lon_e7, f.lat_hp, f.lon_hp)
+    out = law.step(f, prog, 0.2)
+    t.eq(prog.leg, 1)
+    t.eq(out.arc_radius_m, 0.0)
+    t.near(law._want, 13.5, 1e-6)
+    t.eq(law.turns.pending_m, 40.0)
+    t.near(law.corner_radius_m(1), 13.5, 0.01)
 
 
 def test_narrow_uturn_reported():
