@@ -230,6 +230,11 @@ def test_new_radius_waits_for_a_straight():
     t.near(law._want, 13.5, 1e-6)
     t.eq(law.turns.pending_m, 40.0)
     t.near(law.corner_radius_m(1), 13.5, 0.01)
+    # 18 m asked at the same point: the corner behind ends 10.4 m into the leg, before the boat
+    law.turns.pending_m = 18.0
+    law.step(f, prog, 0.2)
+    t.near(law._want, 18.0, 1e-6)
+    t.eq(law.turns.pending_m, 0.0)
 
 
 def test_narrow_uturn_reported():
