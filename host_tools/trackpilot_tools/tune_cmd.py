@@ -156,6 +156,11 @@ def report_text(fit, plots, args):
     L.append("| turning radius (circles, %.0f deg rudder) | %s m |" % (ci["rudder_deg"], _pm(ci["radius_m"], ci["radius_sd_m"], "%.2f")))
     L.append("| ... from K' at that rudder (check) | %.2f m |" % ci["radius_from_k_prime_m"])
     L.append("| current seen | %.2f m/s towards %.0f deg (+- %.2f) |" % (cur["speed_mps"], cur["to_deg"], cur["sd_mps"]))
+    if "leeway_per_crosswind" in cur:
+        L.append("| leeway (sideways drift per m/s of apparent crosswind, from the circles) | %.3f |"
+                 % abs(cur["leeway_per_crosswind"]))
+    elif cur.get("leeway_model") == "heading":
+        L.append("| leeway | modelled as a constant wind's (no wind sensor in the log) |")
     rows = ", ".join("%d RPM: %.2f m/s" % (r, s) for r, s in zip(sm["rpm"], sm["speed_mps"]))
     L.append("| RPM -> water speed | %s (rpm = %.1f + %.1f x speed) |" % (rows, sm["rpm_offset"], sm["rpm_per_mps"]))
     L.append("| speed time constant (RPM step, during the turn back: rough, not used) | %.1f s |" % sm["speed_tc_s"])

@@ -130,39 +130,84 @@ def _sel(a, t0, t1, skip_s=0.0):
 
 
 # --------------------------------------------------------------------------- current, speed
-def fit_current(trial):
-    """Ground velocity over each full circle = u (sin h, cos h) + v (cos h, -sin h) + current."""
+def fit_current(trial, leeway=True):
+    """The current from the full circles: ground velocity = u (sin h, cos h) + v (cos h, -sin h) +
+    current, u and v per circle, the current shared (least squares).
+
+    The sideways velocity v is the leeway: the wind pushes the hull sideways in proportion to the
+    apparent crosswind, which turns all round in a circle. Taken as a constant v, its mean over
+    the circle (half the drift, downwind) looked like current: on windy boats (4-6 m/s) the current
+    came out 0.1-0.15 m/s wrong, so the water speed along the heading was off by that on the
+    straight legs of the zig-zag, and T' by up to 50 % (measured on the hidden boats,
+    docs/COMMISSIONING.md). So v = v0 + lambda x the wind sensor's apparent crosswind
+    (Va sin(angle)), lambda shared; without a wind sensor v = v0 + a sin h + b cos h (a constant
+    wind's crosswind turns with the heading)."""
     a = trial["a"]
-    rows = []
+    sensor = "wind_speed" in a and np.mean(a["wind_speed"] > 0.3) > 0.5
+    circles = []
     for t0, t1, info in segments(trial, "circle"):
         m = _sel(a, t0, t1, 8.0) & a["vel_ok"] & a["heading_ok"]
         turned = abs(float(info.get("turned", 0.0)))
         if m.sum() < 50 or turned < 300:
             continue
-        h = a["heading"][m] * D2R
-        ve = a["sog"][m] * np.sin(a["cog"][m] * D2R)
-        vn = a["sog"][m] * np.cos(a["cog"][m] * D2R)
-        n = len(h)
-        A = np.zeros((2 * n, 4))
-        A[:n, 0], A[n:, 0] = np.sin(h), np.cos(h)
-        A[:n, 1], A[n:, 1] = np.cos(h), -np.sin(h)
-        A[:n, 2] = 1.0
-        A[n:, 3] = 1.0
-        y = np.concatenate([ve, vn])
-        x, cov = _lstsq(A, y)
-        rows.append((x, cov))
-    if not rows:
+        circles.append(m)
+    if not circles:
         raise TuneError("no complete turning circle in the trial: repeat the turning circles "
                         "(the current and the turning radius come from them)")
-    w = np.array([1.0 / max(c[2, 2] + c[3, 3], 1e-8) for _, c in rows])
-    ce = float(np.sum(w * [x[2] for x, _ in rows]) / w.sum())
-    cn = float(np.sum(w * [x[3] for x, _ in rows]) / w.sum())
-    sd = float(math.sqrt(1.0 / w.sum()))
-    spread = float(np.std([math.hypot(x[2] - ce, x[3] - cn) for x, _ in rows])) if len(rows) > 1 else 0.0
-    sd = max(sd, spread)
-    speed = math.hypot(ce, cn)
-    return {"east_mps": ce, "north_mps": cn, "speed_mps": speed,
-            "to_deg": math.degrees(math.atan2(ce, cn)) % 360.0, "sd_mps": sd, "circles": len(rows)}
+    nc = len(circles)
+    if not leeway:
+        lee_cols = 0
+    else:
+        lee_cols = 1 if sensor else 2
+    blocks, ys = [], []
+    for i, m in enumerate(circles):
+        h = a["heading"][m] * D2R
+        n = len(h)
+        sh, ch = np.sin(h), np.cos(h)
+        B = np.zeros((2 * n, 2 * nc + lee_cols + 2))
+        B[:n, 2 * i], B[n:, 2 * i] = sh, ch  # u along the heading
+        B[:n, 2 * i + 1], B[n:, 2 * i + 1] = ch, -sh  # v0 to starboard
+        if lee_cols == 1:
+            x = a["wind_speed"][m] * np.sin(a["wind_angle"][m] * D2R)  # apparent crosswind from starboard
+            B[:n, 2 * nc], B[n:, 2 * nc] = x * ch, -x * sh
+        elif lee_cols == 2:
+            for j, f in enumerate((sh, ch)):
+                B[:n, 2 * nc + j], B[n:, 2 * nc + j] = f * ch, -f * sh
+        B[:n, -2] = 1.0
+        B[n:, -1] = 1.0
+        blocks.append(B)
+        ys.append(np.concatenate([a["sog"][m] * np.sin(a["cog"][m] * D2R),
+                                  a["sog"][m] * np.cos(a["cog"][m] * D2R)]))
+    A = np.vstack(blocks)
+    y = np.concatenate(ys)
+    x, *_ = np.linalg.lstsq(A, y, rcond=None)
+    e = y - A @ x
+    s2 = float(e @ e) / max(1, len(y) - A.shape[1])
+    # residuals are correlated in time (waves, gusts): widen by the east component's inflation
+    infl = _corr_inflation(np.concatenate([e[sum(len(yy) for yy in ys[:i]):][:len(ys[i]) // 2]
+                                           for i in range(nc)]))
+    try:
+        cov = np.linalg.inv(A.T @ A) * s2 * infl
+    except np.linalg.LinAlgError:
+        cov = np.full((A.shape[1], A.shape[1]), np.inf)
+    ce, cn = float(x[-2]), float(x[-1])
+    sd = float(math.sqrt(max(cov[-2, -2] + cov[-1, -1], 0.0)))
+    if nc > 1:
+        # the spread between circles fitted alone (a current that changed, a wind that shifted)
+        per = []
+        for i in range(nc):
+            cols = [2 * i, 2 * i + 1] + list(range(2 * nc, A.shape[1]))
+            rows = slice(sum(len(yy) for yy in ys[:i]), sum(len(yy) for yy in ys[:i + 1]))
+            xi, *_ = np.linalg.lstsq(A[rows][:, cols], y[rows], rcond=None)
+            per.append((xi[-2], xi[-1]))
+        spread = float(np.std([math.hypot(pe - ce, pn - cn) for pe, pn in per]))
+        sd = max(sd, spread)
+    out = {"east_mps": ce, "north_mps": cn, "speed_mps": math.hypot(ce, cn),
+           "to_deg": math.degrees(math.atan2(ce, cn)) % 360.0, "sd_mps": sd, "circles": nc,
+           "leeway_model": ("none" if not leeway else "sensor" if sensor else "heading")}
+    if lee_cols == 1:
+        out["leeway_per_crosswind"] = float(x[2 * nc])  # m/s sideways per m/s of crosswind
+    return out
 
 
 def water_speed(trial, cur):

@@ -32,10 +32,15 @@ def test_alos_held_through_corners_on_a_slow_ram():
     time (max 1.74 m); learning there too (alos_turn_hold = 0, the law before) 77 %: the test can fail."""
     job = {"case": "zigzag_60", "law": "los", "boat": 1, "timeout": 300.0}
     on = BR.run_job(dict(job, fw=None))["metrics"]
-    off = BR.run_job(dict(job, fw={"guidance": {"los_alos_turn_hold": 0.0}}))["metrics"]
     assert not on["failure"], on.get("why")
     assert on["within_1p5_pct"] >= 88.0, on["within_1p5_pct"]
-    assert on["within_1p5_pct"] >= off["within_1p5_pct"] + 8.0, (on["within_1p5_pct"], off["within_1p5_pct"])
+    # the hold alone, on the law of the third round (the fourth round's preview lengthened by the
+    # slow ram also helps a law without the hold: 94.5 against 87.6 %)
+    third = {"los_ram_lead": 0.0, "los_turn_margin": 0.0}
+    held = BR.run_job(dict(job, fw={"guidance": third}))["metrics"]
+    off = BR.run_job(dict(job, fw={"guidance": dict(third, los_alos_turn_hold=0.0)}))["metrics"]
+    assert held["within_1p5_pct"] >= off["within_1p5_pct"] + 8.0, (held["within_1p5_pct"], off["within_1p5_pct"])
+
 
 
 def _deadband_run(boat, case, fw=None, shift=1):
@@ -113,3 +118,31 @@ def test_lookahead_from_the_planned_speed_in_the_approach_from_rest():
     assert on["settled_rms_m"] < 0.25, on["settled_rms_m"]
     assert off["osc"]["oscillates"], off["osc"]
     assert off["osc"]["amp_m"] > 2.0 * on["osc"]["amp_m"], (off["osc"], on["osc"])
+
+
+def _turns(case, boat, fw=None):
+    return BR.run_job({"case": case, "law": "los", "boat": boat, "timeout": 300.0, "fw": fw})["metrics"]
+
+
+def test_preview_lengthened_on_a_slow_ram():
+    """Issue 10, fourth round (docs/NAVIGATION.md "Fourth round: arcs the boat can follow"): boat 5
+    of the spread (ram 7.1 deg/s, pilot gain 1.05) on the 60 deg zig-zag. The rudder reports show
+    a ram of about 7.6 deg/s, so the preview grows by 29 deg x (1/7.6 - 1/10) s = 0.9 s: the boat
+    starts its turns in time. Without it (ram_lead = 0) it turns late and is within 1.5 m for
+    about 52 % of the run: the test can fail."""
+    on = _turns("zigzag_60", 5)
+    off = _turns("zigzag_60", 5, {"guidance": {"los_ram_lead": 0.0}})
+    assert not on["failure"], on.get("why")
+    assert on["within_1p5_pct"] >= off["within_1p5_pct"] + 6.0, (on["within_1p5_pct"], off["within_1p5_pct"])
+    assert on["out_corner_pct"] < off["out_corner_pct"], (on["out_corner_pct"], off["out_corner_pct"])
+
+
+def test_arcs_no_tighter_than_the_boat_turns():
+    """Boat 20 of the spread (pilot gain 0.61, ram 8.0 deg/s: a sluggish pilot) on the zig-zag: on its
+    first arc the heading trails the 13.5 m arc; the law measures the radius it achieves and plans
+    the later arcs at 1.2 x that. With the measurement off (turn_margin = 0, the plan as
+    configured) the run is within 1.5 m for less of the time: the test can fail."""
+    on = _turns("zigzag_60", 20)
+    off = _turns("zigzag_60", 20, {"guidance": {"los_turn_margin": 0.0}})
+    assert not on["failure"], on.get("why")
+    assert on["within_1p5_pct"] >= off["within_1p5_pct"] + 4.0, (on["within_1p5_pct"], off["within_1p5_pct"])

@@ -55,7 +55,9 @@ class Boat:
     """Kinematic boat: heading follows the command with a first-order lag and a rate limit;
     water speed u along the heading plus a constant current (east, north)."""
 
-    def __init__(self, east_m, north_m, heading_deg, u_mps, cur_e_mps=0.0, cur_n_mps=0.0, tc_s=1.5):
+    def __init__(self, east_m, north_m, heading_deg, u_mps, cur_e_mps=0.0, cur_n_mps=0.0, tc_s=1.5,
+                 max_rate_dps=10.0):
+        self.max_rate_dps = max_rate_dps  # the turn it achieves: radius u / rate at most
         self.e = east_m
         self.n = north_m
         self.h = heading_deg
@@ -68,7 +70,7 @@ class Boat:
     def step(self, heading_cmd_deg, dt_s):
         err = (heading_cmd_deg - self.h + 180.0) % 360.0 - 180.0
         rate = err / self.tc_s
-        rate = max(-10.0, min(10.0, rate))
+        rate = max(-self.max_rate_dps, min(self.max_rate_dps, rate))
         self.h = (self.h + rate * dt_s) % 360.0
         ve = self.u * math.sin(math.radians(self.h)) + self.ce
         vn = self.u * math.cos(math.radians(self.h)) + self.cn

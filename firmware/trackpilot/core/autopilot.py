@@ -418,6 +418,13 @@ class Autopilot:
                     and p.commanding() and fix.heading_valid and p.status_fresh(t_ms))
                 if note:
                     self.event("GUIDE", note)
+            if hasattr(self.law, "rudder_report"):  # the ram's rate from the reported rudder (los)
+                p = self.pilot
+                note = self.law.rudder_report(
+                    p.last_heading_ms, p.rudder_deg,
+                    guiding and mm.pilot == M.PILOT_STEER and p.commanding() and p.status_fresh(t_ms))
+                if note:
+                    self.event("GUIDE", note)
         fix = nav
         if mm.pilot == M.PILOT_STEER and out is not None and fix.heading_valid and self.pilot.commanding():
             # in the pilot's own compass frame: cancels its compass error (seed report 4.7)

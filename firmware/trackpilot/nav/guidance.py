@@ -23,10 +23,13 @@ import math
 
 from trackpilot.compat import wrap180, wrap360
 from trackpilot.nav.swing import SwingWatch
+from trackpilot.nav.turnwatch import TurnWatch
 
 _RAD = math.pi / 180.0
 _HALF_PI = math.pi * 0.5
 _CORNER_CACHE = 16  # planned corners kept (direct-mapped by waypoint index)
+_TRAIL_DEG = 10.0  # on an arc, the course made good trailing the path by more: the boat turns its widest
+_STOP_SEEN_DEG = 15.0  # the largest rudder reported counts as the stop from this angle on
 
 
 class GuidanceOut:
@@ -187,6 +190,9 @@ class LosLaw:
         "tau_zeta": (0.7, "1", 0.3, 1.5, "damping ratio kept at the measured heading response"),
         "tau_max_s": (20.0, "s", 2.0, 60.0, "bound of the measured heading response"),
         "tau_window_s": (10.0, "s", 5.0, 120.0, "heading response: length of one fitting window"),
+        "turn_margin": (1.2, "1", 0.0, 3.0, "arcs planned at least this x the radius the boat achieved (0 = off)"),
+        "ram_lead": (1.0, "1", 0.0, 3.0, "preview lengthened by this x the ram's extra delay (0 = off)"),
+        "ram_ref_dps": (10.0, "deg/s", 1.0, 60.0, "the ram rate preview_s was set for"),
     }
 
     def __init__(self, **params):
@@ -209,6 +215,9 @@ class LosLaw:
         self.tau_scale = 1.0
         self._tau_logged_s = 0.0
         self._on_straight = False
+        # what the boat achieves in turns (nav/turnwatch.py; its state lives there: the ESP32 heap
+        # keeps this object's attribute table small): the boat's, so it outlives reset()
+        self.turns = TurnWatch()
         self.reset()
 
     def configure(self, params):
@@ -222,6 +231,7 @@ class LosLaw:
             self.tau.window_s = self.tau_window_s
             self.tau.restart()
         self.tau_scale = 1.0
+        self.turns.set_lead(self.ram_lead, self.ram_ref_dps)
 
     def reset(self):
         self.crab_f_deg = 0.0
@@ -232,6 +242,7 @@ class LosLaw:
         self.swing.reset()
         self._approach = True
         self._stop_s = 0.0  # the pilot's rudder at its stop in the approach's overshoot
+        self.turns.end()
         if self.tau is not None:
             self.tau.reset()
         self.out.valid = False
@@ -244,6 +255,9 @@ class LosLaw:
         self._track = trk
         self._n = len(trk.waypoints)
         self._want = self.round_factor * self.turn_radius_m
+        if self.turn_margin > 0.0 and self.turns.want_m > self._want:
+            self._want = self.turns.want_m  # what the boat showed it turns at (a new track, a new plan)
+        self.turns.uturn_told = -1
         self._cache_k = [-1] * _CORNER_CACHE
         self._cache_c = [None] * _CORNER_CACHE
 
@@ -348,6 +362,7 @@ class LosLaw:
             if s * tan > s * th:  # past the arc, progress still on this leg: next leg's line
                 return th, self._line_xte(a, x, length, 0.0, th), self._preview_rad(1, k, self._straight(k), p), 0.0
             rem = th_k - s * tan
+            self.turns.sign = s
             return tan, s * (r - math.sqrt(dx * dx + dy * dy)), self._preview_rad(0, k, rem, p), r
         if t_start > 0.0 and a <= t_start:
             k = i
@@ -360,6 +375,7 @@ class LosLaw:
                 return 0.0, x, self._preview_rad(1, i, t_start + self._straight(i) - a, p), 0.0
             if s * tan < -s * th:  # before the arc: the previous leg's line
                 return -th, self._line_xte(a, x, 0.0, 0.0, -th), self._preview_rad(0, k, th_k, p), 0.0
+            self.turns.sign = s
             return tan, s * (r - math.sqrt(dx * dx + dy * dy)), self._preview_rad(0, k, -s * tan, p), r
         rem = length - t_end - a
         if rem < 0.0:
@@ -389,9 +405,16 @@ class LosLaw:
                 self.crab_ok = True
             else:
                 self.crab_f_deg += (c - self.crab_f_deg) * (dt_s / (self.crab_tc_s + dt_s))
-        tan_rad, y, prev_rad, arc_r = self._path(prog, u_eff * self.preview_s)
+        p_m = u_eff * (self.preview_s + self.turns.lead_s)  # the ram's own delay on top
+        tan_rad, y, prev_rad, arc_r = self._path(prog, p_m)
         out.note = ""
         self._on_straight = arc_r == 0.0 and -0.035 < prev_rad < 0.035 and not prog.finished
+        if self.turns.pending_m > 0.0 and self._on_straight:
+            r = self._replan(prog, p_m)
+            if r is not None:
+                tan_rad, y, prev_rad, arc_r = r
+        if self.turn_margin > 0.0:
+            self._turn_watch(fix, prog, dt_s, arc_r, tan_rad)
         # engaged from rest: the lookahead of the speed the boat is being driven to, so the first
         # course step is the one for that speed, not a 40 deg one for 6 m (docs/NAVIGATION.md
         # "Fifth round"); over once it has (nearly) reached that speed, or at a turn
@@ -518,7 +541,75 @@ class LosLaw:
             what = "lookahead x%.2f, clip %.0f deg" % (self.la_scale, self.clip_deg * self.clip_scale)
         else:
             what = "at its limits"
-        self.out.note = "xte swings +-%.1f m, period %.0f s: %s" % (self.swing.amp, period_s, what)
+        text = "xte swings +-%.1f m, period %.0f s: %s" % (self.swing.amp, period_s, what)
+        self.out.note = text if not self.out.note else self.out.note + "; " + text
+
+    # ---- what the boat achieves in turns (docs/NAVIGATION.md "Fourth round") ----
+    def _turn_watch(self, fix, prog, dt_s, arc_r, tan_rad):
+        """Measure the radius the boat turns at while an arc asks more than it gives (the course
+        made good trailing the path by > _TRAIL_DEG, or the rudder at its stop; from the arc until
+        the boat has caught up with the path), and ask for later arcs no tighter than turn_margin x
+        that; tell a U-turn ahead narrower than twice that."""
+        tw = self.turns
+        limited = False
+        s = tw.sign
+        # from an arc on, and past its end while the boat still trails the path (a short arc ends
+        # before a slow boat has turned its turn)
+        if (arc_r > 0.0 or tw.in_stretch) and fix.vel_valid and not prog.finished:
+            cmg = fix.heading_deg + (self.crab_f_deg if self.crab_ok else 0.0)
+            trail = s * wrap180(prog.leg_bearing_deg + tan_rad / _RAD - cmg)
+            at_stop = tw.rudder_ok and tw.stop_deg >= _STOP_SEEN_DEG and s * tw.rudder_now() >= tw.stop_deg - 1.0
+            limited = trail > _TRAIL_DEG or at_stop
+        if not tw.step(dt_s, fix.heading_deg, fix.sog_mps if fix.vel_valid else 0.0, s, limited):
+            return
+        want = self.turn_margin * tw.radius_m
+        have = self._want if tw.pending_m <= 0.0 else tw.pending_m
+        if want > have * 1.05 or (tw.want_m > 0.0 and want < have * 0.95):
+            tw.pending_m = want
+        text = "turned at %.1f m at %.1f m/s (mean %.1f m of %d): arcs %.1f m" % (
+            tw.last_m, tw.last_sog_mps, tw.radius_m, tw.samples,
+            max(self.round_factor * self.turn_radius_m, want))
+        from trackpilot.nav.track import narrow_uturn
+
+        k, w = narrow_uturn(self._track, prog.leg, 2.0 * tw.radius_m, 200)
+        if k > 0 and k != tw.uturn_told:  # once per U-turn
+            tw.uturn_told = k
+            text += "; U-turn at %s %.0f m wide, the boat turns 2 x %.1f m: expect %.1f m past it" % (
+                self._track.waypoints[k].label(k), w, tw.radius_m, 2.0 * tw.radius_m - w)
+        self.out.note = text if not self.out.note else self.out.note + "; " + text
+
+    def _replan(self, prog, p_m):
+        """Apply the asked arc radius on a straight; kept only if the boat stays on the straight
+        of the new plan (the corner behind grows too). Returns the new _path or None."""
+        tw = self.turns
+        old_want, old_meas = self._want, tw.want_m
+        tw.want_m = tw.pending_m
+        self._want = max(self.round_factor * self.turn_radius_m, tw.want_m)
+        self._cache_k = [-1] * _CORNER_CACHE
+        r = self._path(prog, p_m)
+        if r[3] == 0.0 and -0.035 < r[2] < 0.035:
+            tw.pending_m = 0.0
+            return r
+        self._want, tw.want_m = old_want, old_meas  # not here: the next straight
+        self._cache_k = [-1] * _CORNER_CACHE
+        return None
+
+    def rudder_report(self, t_ms, rudder_deg, ok):
+        """The pilot's reported rudder (0x84 / 0x9C; t_ms: when it came), while steering (ok). The
+        fastest move sets the ram's delay the preview adds (TurnWatch.set_lead). Returns a note or
+        ""."""
+        tw = self.turns
+        tw.rudder_ok = ok and t_ms is not None and rudder_deg is not None
+        if not tw.rudder_ok or self.ram_lead <= 0.0:
+            return ""
+        if not tw.rudder(t_ms, rudder_deg):
+            return ""
+        old = tw.lead_s
+        tw.set_lead(self.ram_lead, self.ram_ref_dps)
+        if -0.1 < tw.lead_s - old < 0.1:
+            return ""  # logged when the lead moves by 0.1 s
+        return "rudder moves at %.1f deg/s (stop %.0f deg): preview %.1f s" % (
+            tw.ram_dps, tw.stop_deg, self.preview_s + tw.lead_s)
 
     def pilot_rudder(self, dt_s, rudder_deg):
         """Each new pilot status in AUTO: its reported rudder, dt_s since the last status. Counts
@@ -539,10 +630,11 @@ class LosLaw:
         scale = max(self.adapt_clip_min_deg, self.adapt_overshoot_clip_deg) / self.clip_deg
         if scale < self.clip_scale:
             self.clip_scale = scale
-        self.out.note = ("approach overshoots %.1f m of %.1f m, rudder at its stop %.0f s: "
-                         "lookahead x%.2f, clip %.0f deg") % (
+        text = ("approach overshoots %.1f m of %.1f m, rudder at its stop %.0f s: "
+                "lookahead x%.2f, clip %.0f deg") % (
             self.swing.peak, self.swing.prev_amp, self._stop_s, self.la_scale,
             self.clip_deg * self.clip_scale)
+        self.out.note = text if not self.out.note else self.out.note + "; " + text
 
     def _speed(self, prog, leg):
         """The leg's speed, eased towards the next leg's before the waypoint (surge lag), and

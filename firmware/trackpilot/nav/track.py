@@ -425,6 +425,23 @@ def corner_deviation_m(turn_deg, radius_m):
     return radius_m * (1.0 - math.cos(math.radians(abs(turn_deg)) * 0.5))
 
 
+def narrow_uturn(trk, leg, min_width_m, ahead=2000):
+    """(k, width_m) of the first U-turn narrower than min_width_m with its first corner at waypoint
+    k >= leg (at most `ahead` corners looked at); (0, 0.0) if none. A U-turn: the corners at k and
+    k + 1 turn the same way, 150 deg or more together; its width is how far waypoint k + 1 lies
+    from the line of the leg into k."""
+    legs = trk.legs
+    for k in range(max(1, leg), min(len(legs) - 1, leg + ahead)):
+        a = legs[k - 1].turn_deg
+        b = legs[k].turn_deg
+        if a * b <= 0.0 or abs(a + b) < 150.0 or abs(a) >= 179.0 or abs(b) >= 179.0:
+            continue
+        w = legs[k].length_m * abs(math.sin(math.radians(a)))
+        if w < min_width_m:
+            return k, w
+    return 0, 0.0
+
+
 def corner_tangent_m(turn_deg, radius_m):
     """Distance from the waypoint to where that circle touches each leg: R tan(theta/2)."""
     a = abs(turn_deg)
@@ -681,6 +698,14 @@ def validate(trk, boat=None):
                             "turning radius expect %.1f m off the track there (the turn passes %.1f m "
                             "inside the waypoint)" % (wps[k].label(k), th, r, dev,
                                                       r / math.cos(math.radians(abs(th)) * 0.5) - r))
+    k = 1
+    while True:
+        k, w = narrow_uturn(trk, k, 2.0 * r)
+        if not k:
+            break
+        warnings.append("%s: U-turn %.1f m wide, narrower than the boat turns (2 x %.1f m); expect "
+                        "it to swing about %.1f m past the leg back" % (wps[k].label(k), w, r, 2.0 * r - w))
+        k += 1
     return warnings
 
 
