@@ -20,7 +20,7 @@ of the wanted one for a long time and the cross-track error with it.
   estimate + 3 deg, or turning faster than 2 deg/s: a relay on the heading error would feed the
   swing).
 
-A few floats: nothing allocated per step but the notes.
+A few attributes and no buffers; a string only for a note.
 """
 from trackpilot.compat import const, ticks_diff, wrap180
 
