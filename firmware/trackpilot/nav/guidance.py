@@ -166,9 +166,9 @@ class LosLaw:
         "alos_max_deg": (20.0, "deg", 0.0, 45.0, "clamp of the adaptive crab estimate"),
         "alos_zone_m": (5.0, "m", 0.1, 100.0, "adapt only within this distance of the path"),
         "slow_ref_mps": (2.0, "m/s", 0.0, 5.0, "slow leg: below this planned speed lookahead time, lead and ALOS integral time grow as slow_ref / U (0 = off)"),
+        "slow_min_mps": (1.0, "m/s", 0.1, 5.0, "slow leg: below this planned speed the schedule grows no more"),
         "slow_alos": (1.0, "1", 0.0, 1.0, "slow leg: the ALOS gain divided by slow_ref / U (1 = on)"),
         "slow_chi_deg": (5.0, "deg", 0.0, 90.0, "slow leg: the ALOS learns with weight 1 - |course made good - path| / this (0 = always)"),
-        "alos_full_mps": (0.0, "m/s", 0.0, 10.0, "slow leg: the ALOS off at half this planned speed, full at it (0 = off; measured, not used)"),
         "alos_turn_hold": (1.0, "1", 0.0, 1.0, "ALOS held on arcs and in a corner's preview (1 = on; 0 = learns there too)"),
         "clip_deg": (45.0, "deg", 5.0, 120.0, "clip of the relative command (heading_cmd - heading)"),
         "max_turn_rate_dps": (10.0, "deg/s", 0.0, 60.0, "slow down so U / r stays below this (0 = off)"),
@@ -392,7 +392,7 @@ class LosLaw:
         # a slow leg (docs/NAVIGATION.md "Fifth round"): the heading response slows as 1 / U below
         # slow_ref_mps (rudder force ~ U^2), so the lookahead time and the lead grow with it:
         # scheduled on the leg's planned speed, not on the SOG every start from rest passes through
-        u_leg = leg.speed_mps if leg.speed_mps > 0.3 else 0.3
+        u_leg = leg.speed_mps if leg.speed_mps > self.slow_min_mps else self.slow_min_mps
         slow = self.slow_ref_mps / u_leg if self.slow_ref_mps > u_leg else 1.0
         la = _clip(self.lookahead_gain * u_eff * self.heading_tc_s * slow, self.lookahead_min_m,
                    self.lookahead_max_m) * self.tau_scale * self.la_scale
@@ -418,8 +418,6 @@ class LosLaw:
                 w = 1.0 / slow
             if self.slow_chi_deg > 0.0 and self.crab_ok:
                 w *= 1.0 - abs(chi_rad) / (self.slow_chi_deg * _RAD)
-            if self.alos_full_mps > u_leg:
-                w *= _clip(2.0 * u_leg / self.alos_full_mps - 1.0, 0.0, 1.0)
         if (self.alos_gain > 0.0 and w > 0.0 and not out.clipped and not self._intercept_clamped and not turning
                 and abs(y) < self.alos_zone_m and u >= self.crab_min_speed_mps and not prog.finished):
             self.beta_hat_rad += dt_s * self.alos_gain * w * la / math.sqrt(la * la + y * y) * y
