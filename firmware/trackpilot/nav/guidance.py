@@ -142,6 +142,9 @@ class LosLaw:
     (alos_turn_hold), and clamped.
     lookahead = clamp(lookahead_gain * U * heading_tc_s, min, max) = 6 s x U by default, from
     the closed heading response's spread with a stability margin (docs/NAVIGATION.md).
+    On a slow leg (planned speed U < slow_ref_mps) the heading response slows as 1 / U: lookahead
+    time, lead and ALOS integral time x slow_ref / max(U, slow_min_mps), and the ALOS learns only
+    while the course made good runs along the path (slow_chi_deg; "Fifth round").
     Defaults: docs/NAVIGATION.md "Tuning".
     Corners are arcs of radius round_factor * turn_radius_m, shrunk where legs are too short
     (never below turn_radius_m / 2; sharper corners and reversals >= 170 deg are not rounded).
