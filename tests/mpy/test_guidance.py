@@ -497,3 +497,23 @@ def test_slow_leg_leaves_legs_at_speed_alone():
             t.eq(oa.heading_cmd_deg, ob.heading_cmd_deg)
             t.eq(oa.integral_deg, ob.integral_deg)
             t.eq(oa.lookahead_m, ob.lookahead_m)
+
+
+def test_slow_leg_alos_learns_only_along_the_path():
+    # on a 1 m/s leg the ALOS's weight is (1 - |chi| / 5 deg) / slow, chi the course made good
+    # against the path: an approach at 6 deg learns nothing, 2.5 deg learns at half the rate of
+    # 0 deg; at 2 m/s (not a slow leg) the course does not matter
+    def integral_deg(u_leg, heading_deg):
+        law = LosLaw()  # the gate needs the course made good: heading + the measured crab (0 here)
+        prog = Progress(_line(u_leg))
+        out = None
+        for _ in range(20):
+            out = _step(law, prog, make_fix(1.0, 50.0, heading_deg, sog_mps=u_leg))
+        return out.integral_deg
+
+    along = integral_deg(1.0, 0.0)
+    t.true(along > 0.1, along)
+    t.eq(integral_deg(1.0, -6.0), 0.0)
+    t.eq(integral_deg(1.0, 6.0), 0.0)
+    t.near(integral_deg(1.0, -2.5), 0.5 * along, 0.02 * along)
+    t.near(integral_deg(2.0, -6.0), integral_deg(2.0, 0.0), 1e-9)
