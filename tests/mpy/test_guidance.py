@@ -481,3 +481,77 @@ def test_los_lookahead_from_the_planned_speed_while_accelerating():
     prog = Progress(_corner())
     _step(law, prog, make_fix(0.0, 85.5, 0.0, sog_mps=0.5))
     t.near(_step(law, prog, make_fix(2.0, 40.0, 0.0, sog_mps=0.5)).lookahead_m, 6.0, 1e-4)
+
+
+def _line(u_mps):  # one straight north at u_mps
+    return track_from_m([(0, 0, u_mps), (0, 500, u_mps)])
+
+
+def test_slow_leg_scales_lookahead_lead_and_alos():
+    # docs/NAVIGATION.md "Fifth round": below slow_ref_mps (2 m/s) the leg's planned speed U sets
+    # slow = 2 / U: lookahead time, lead and ALOS integral time x slow. On a 1 m/s leg sailed at
+    # 1 m/s: lookahead 2 x 1 x 3 s x 2 = 12 m (6 m with slow_ref 0), T_d = 6 s.
+    for ref, la_m, t_d_s in ((2.0, 12.0, 6.0), (0.0, 6.0, 3.0)):
+        law = LosLaw(slow_ref_mps=ref)
+        prog = Progress(_line(1.0))
+        out = _step(law, prog, make_fix(0.0, 50.0, 10.0, sog_mps=1.0))  # on the line, 10 deg off it
+        t.near(out.lookahead_m, la_m, 1e-4)
+        y_lead_m = t_d_s * 1.0 * math.sin(math.radians(10.0))  # the lead's predicted xte
+        t.near(_diff(out.heading_cmd_deg, 0.0), -math.degrees(math.atan2(y_lead_m, la_m)), 1e-3)
+
+    # the ALOS's rate / slow: 1 m off on a 1 m/s leg, 20 steps of 0.2 s
+    def integral_deg(ref, u_leg):
+        law = LosLaw(slow_ref_mps=ref, crab_use=0.0)
+        prog = Progress(_line(u_leg))
+        out = None
+        for _ in range(20):
+            out = _step(law, prog, make_fix(1.0, 50.0, 0.0, sog_mps=u_leg))
+        return out.integral_deg, out.lookahead_m
+
+    slow_deg, la_m = integral_deg(2.0, 1.0)
+    want = 4.0 * (0.004 / 2.0) * la_m / math.sqrt(la_m * la_m + 1.0) * 1.0 / _RAD_DEG
+    t.near(slow_deg, want, 1e-3 * want)
+    fast_deg, la_m = integral_deg(0.0, 1.0)
+    t.near(fast_deg, 4.0 * 0.004 * la_m / math.sqrt(la_m * la_m + 1.0) / _RAD_DEG, 1e-3 * fast_deg)
+    t.true(slow_deg < 0.52 * fast_deg, (slow_deg, fast_deg))
+
+
+_RAD_DEG = math.pi / 180.0
+
+
+def test_slow_leg_leaves_legs_at_speed_alone():
+    # at or above slow_ref_mps the law is the one before, bit for bit (the 2-3 m/s straights);
+    # the schedule follows the leg's planned speed, not the SOG of a start from rest
+    for u_leg in (2.0, 3.0):
+        a = LosLaw(slow_ref_mps=2.0)
+        b = LosLaw(slow_ref_mps=0.0)
+        pa = Progress(_line(u_leg))
+        pb = Progress(_line(u_leg))
+        for k in range(150):
+            sog = 0.3 + 0.02 * k  # accelerating from rest
+            f = make_fix(4.0 - 0.02 * k, 10.0 + 0.5 * k, -20.0 + 0.1 * k, sog_mps=sog, cog_deg=-25.0 + 0.1 * k)
+            oa = _step(a, pa, f)
+            ob = _step(b, pb, f)
+            t.eq(oa.heading_cmd_deg, ob.heading_cmd_deg)
+            t.eq(oa.integral_deg, ob.integral_deg)
+            t.eq(oa.lookahead_m, ob.lookahead_m)
+
+
+def test_slow_leg_alos_learns_only_along_the_path():
+    # on a 1 m/s leg the ALOS's weight is (1 - |chi| / 5 deg) / slow, chi the course made good
+    # against the path: an approach at 6 deg learns nothing, 2.5 deg learns at half the rate of
+    # 0 deg; at 2 m/s (not a slow leg) the course does not matter
+    def integral_deg(u_leg, heading_deg):
+        law = LosLaw()  # the gate needs the course made good: heading + the measured crab (0 here)
+        prog = Progress(_line(u_leg))
+        out = None
+        for _ in range(20):
+            out = _step(law, prog, make_fix(1.0, 50.0, heading_deg, sog_mps=u_leg))
+        return out.integral_deg
+
+    along = integral_deg(1.0, 0.0)
+    t.true(along > 0.1, along)
+    t.eq(integral_deg(1.0, -6.0), 0.0)
+    t.eq(integral_deg(1.0, 6.0), 0.0)
+    t.near(integral_deg(1.0, -2.5), 0.5 * along, 0.02 * along)
+    t.near(integral_deg(2.0, -6.0), integral_deg(2.0, 0.0), 1e-9)

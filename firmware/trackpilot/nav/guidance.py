@@ -146,6 +146,9 @@ class LosLaw:
     lookahead = clamp(lookahead_gain * U * heading_tc_s, min, max) = 6 s x U by default, from
     the closed heading response's spread with a stability margin (docs/NAVIGATION.md); with accel_la
     (off by default) from that share of the planned speed while the boat speeds up after an engage.
+    On a slow leg (planned speed U < slow_ref_mps) the heading response slows as 1 / U: lookahead
+    time, lead and ALOS integral time x slow_ref / max(U, slow_min_mps), and the ALOS learns only
+    while the course made good runs along the path (slow_chi_deg; "Fifth round").
     Defaults: docs/NAVIGATION.md "Tuning".
     Corners are arcs of radius round_factor * turn_radius_m, shrunk where legs are too short
     (never below turn_radius_m / 2; sharper corners and reversals >= 170 deg are not rounded).
@@ -171,6 +174,10 @@ class LosLaw:
         "alos_gain": (0.004, "rad/(m s)", 0.0, 0.1, "adaptive crab gain gamma (0 = off)"),
         "alos_max_deg": (20.0, "deg", 0.0, 45.0, "clamp of the adaptive crab estimate"),
         "alos_zone_m": (5.0, "m", 0.1, 100.0, "adapt only within this distance of the path"),
+        "slow_ref_mps": (2.0, "m/s", 0.0, 5.0, "slow leg: below this planned speed lookahead time, lead and ALOS integral time grow as slow_ref / U (0 = off)"),
+        "slow_min_mps": (1.0, "m/s", 0.1, 5.0, "slow leg: below this planned speed the schedule grows no more"),
+        "slow_alos": (1.0, "1", 0.0, 1.0, "slow leg: the ALOS gain divided by slow_ref / U (1 = on)"),
+        "slow_chi_deg": (5.0, "deg", 0.0, 90.0, "slow leg: the ALOS learns with weight 1 - |course made good - path| / this (0 = always)"),
         "alos_turn_hold": (1.0, "1", 0.0, 1.0, "ALOS held on arcs and in a corner's preview (1 = on; 0 = learns there too)"),
         "clip_deg": (45.0, "deg", 5.0, 120.0, "clip of the relative command (heading_cmd - heading)"),
         "max_turn_rate_dps": (10.0, "deg/s", 0.0, 60.0, "slow down so U / r stays below this (0 = off)"),
@@ -405,6 +412,11 @@ class LosLaw:
                 self.crab_ok = True
             else:
                 self.crab_f_deg += (c - self.crab_f_deg) * (dt_s / (self.crab_tc_s + dt_s))
+        # a slow leg (docs/NAVIGATION.md "Fifth round"): the heading response slows as 1 / U below
+        # slow_ref_mps (rudder force ~ U^2), so the lookahead time and the lead grow with it:
+        # scheduled on the leg's planned speed, not on the SOG every start from rest passes through
+        u_leg = leg.speed_mps if leg.speed_mps > self.slow_min_mps else self.slow_min_mps
+        slow = self.slow_ref_mps / u_leg if self.slow_ref_mps > u_leg else 1.0
         p_m = u_eff * (self.preview_s + self.turns.lead_s)  # the ram's own delay on top
         tan_rad, y, prev_rad, arc_r = self._path(prog, p_m)
         out.note = ""
@@ -425,7 +437,7 @@ class LosLaw:
                 self._accel = False
             elif self.accel_la * v_plan > u_la:
                 u_la = self.accel_la * v_plan
-        la = _clip(self.lookahead_gain * u_la * self.heading_tc_s, self.lookahead_min_m,
+        la = _clip(self.lookahead_gain * u_la * self.heading_tc_s * slow, self.lookahead_min_m,
                    self.lookahead_max_m) * self.tau_scale * self.la_scale
         if self.adapt_max_scale > 1.0:
             self._watch(dt_s, y, la / self.la_scale / u_la, self._on_straight)
@@ -434,18 +446,29 @@ class LosLaw:
         # held through corners: a turn's lag is not a steady crab, and what it learnt there
         # pushed the boat off after the corner (docs/NAVIGATION.md "Turns over the random boats")
         turning = self.alos_turn_hold > 0.0 and (arc_r > 0.0 or prev_rad != 0.0)
-        if (self.alos_gain > 0.0 and not out.clipped and not self._intercept_clamped and not turning
+        # the course made good against the path: the lead's prediction and the slow leg's ALOS gate
+        chi_rad = 0.0
+        if self.crab_ok:
+            chi_rad = wrap180(fix.heading_deg + self.crab_f_deg - prog.leg_bearing_deg) * _RAD - tan_rad
+        w = 1.0
+        if slow > 1.0:
+            # a slow leg: the ALOS's integral time grows with the lookahead time, and it learns a
+            # steady offset (the course made good along the path), not the long approach or a swing
+            if self.slow_alos > 0.0:
+                w = 1.0 / slow
+            if self.slow_chi_deg > 0.0 and self.crab_ok:
+                w *= 1.0 - abs(chi_rad) / (self.slow_chi_deg * _RAD)
+        if (self.alos_gain > 0.0 and w > 0.0 and not out.clipped and not self._intercept_clamped and not turning
                 and abs(y) < self.alos_zone_m and u >= self.crab_min_speed_mps and not prog.finished):
-            self.beta_hat_rad += dt_s * self.alos_gain * la / math.sqrt(la * la + y * y) * y
+            self.beta_hat_rad += dt_s * self.alos_gain * w * la / math.sqrt(la * la + y * y) * y
             lim = self.alos_max_deg * _RAD
             self.beta_hat_rad = _clip(self.beta_hat_rad, -lim, lim)
         crab = self.crab_f_deg * self.crab_use if self.crab_ok else 0.0
         # damping: the xte predicted xte_lead_s ahead from the course made good (heading + the
         # filtered crab: quieter than the raw COG), so the heading loop's lag cannot ring
         y_lead = y
-        t_lead_s = self.xte_lead_s * self.lead_scale * self.la_scale * self.tau_scale  # T_d / T_la kept
+        t_lead_s = self.xte_lead_s * self.lead_scale * self.la_scale * self.tau_scale * slow  # T_d / T_la kept
         if t_lead_s > 0.0 and self.crab_ok:
-            chi_rad = wrap180(fix.heading_deg + self.crab_f_deg - prog.leg_bearing_deg) * _RAD - tan_rad
             y_lead = y + t_lead_s * u * math.sin(chi_rad)
         corr = -math.atan2(y_lead, la) / _RAD
         self._intercept_clamped = corr > self.intercept_max_deg or corr < -self.intercept_max_deg
