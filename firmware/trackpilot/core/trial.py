@@ -13,8 +13,12 @@ The script (each phase logged "TRIAL <phase> start/end ..." with its own numbers
     zigzag    after the steps at each speed: the locked course 2 x `zigzag_deg` to one side of the base course,
               switched to the other side when the heading passes `zigzag_deg` (a course
               just `zigzag_deg` off would be reached only asymptotically), `zigzag_legs` legs
-    circle    at rpm_high: the locked course kept `circle_lead_deg` ahead of the compass
-              (full rudder) for `circle_turns` turns to starboard, then to port
+    circle    the locked course kept `circle_lead_deg` ahead of the compass (full rudder). At
+              rpm_low right after its zig-zag: `circle_low_turns` turn(s) to starboard that end on the
+              reversed course (the turn back to the second speed), so the current that sets the
+              zig-zag's water speed is measured within a minute of it (it walks: measured 2-5 min
+              later it moved T' by up to 20 %, docs/COMMISSIONING.md). At rpm_high after its
+              zig-zag: `circle_turns` turns to starboard, then to port
 Limits (any one ends the trial and sends the boat to STANDBY): `max_distance_m` from the start
 point, `max_duration_s`, water speed below `min_speed_mps` for `min_speed_grace_s` once under
 way, any alarm (the mode machine aborts TRIAL on any alarm by itself).
@@ -45,6 +49,7 @@ DEFAULTS = {
     "zigzag_max_s": 90,
     "circle_lead_deg": 150,
     "circle_turns": 2,
+    "circle_low_turns": 1,
     "circle_max_s": 90,
     "max_distance_m": 600.0,
     "max_duration_s": 600,
@@ -213,9 +218,19 @@ class Trial:
             d = 0.0 if self.circ_prev is None else wrap180(heading_deg - self.circ_prev)
             self.circ_prev = heading_deg
             self.circ_turned += d * self.circ_dir
-            if self.circ_turned >= 360.0 * c["circle_turns"] or in_s >= c["circle_max_s"]:
+            low = self.rpm_i + 1 < len(self.rpms)  # the circle after a zig-zag that is not the last
+            if low:
+                # whole turns, then on until the locked course (lead ahead) is the reversed course:
+                # the pilot finishes the turn back on its own
+                goal = 360.0 * c["circle_low_turns"] + 180.0 - c["circle_lead_deg"]
+            else:
+                goal = 360.0 * c["circle_turns"]
+            if self.circ_turned >= goal or in_s >= c["circle_max_s"]:
                 self._mark("circle end dir=%+d turned=%.0f in %.1f s" % (self.circ_dir, self.circ_turned, in_s))
-                if self.circ_dir > 0:
+                if low:
+                    self.lead_deg = 0
+                    self._next_speed(t_ms)
+                elif self.circ_dir > 0:
                     self._begin_circle(t_ms, -1)
                 else:
                     return self._finish("end", "complete in %.0f s" % el_s)
@@ -228,14 +243,15 @@ class Trial:
 
     def _after_zigzag(self, t_ms):
         """The zig-zag at each speed (T = T' L / u changes with speed, the rudder's flow lag does
-        not: two speeds tell them apart); after the first, the turn back and the second speed."""
+        not: two speeds tell them apart); after each, a circle at its speed (the current next to
+        it); the first circle ends in the turn back to the second speed."""
+        self._begin_circle(t_ms, 1)
+
+    def _next_speed(self, t_ms):
+        """On to the next RPM, the pilot finishing the turn back (P_SPEED waits for it to settle)."""
         self.rpm_i += 1
-        if self.rpm_i < len(self.rpms):
-            self.rpm = int(self.rpms[self.rpm_i])
-            self.course_delta_deg += 180
-            self._enter(P_SPEED, t_ms, "rpm=%d turn=180" % self.rpm)
-        else:
-            self._begin_circle(t_ms, 1)
+        self.rpm = int(self.rpms[self.rpm_i])
+        self._enter(P_SPEED, t_ms, "rpm=%d turn=180" % self.rpm)
 
     def _begin_circle(self, t_ms, direction):
         self.circ_dir = direction
