@@ -120,6 +120,41 @@ def test_script_marks_each_manoeuvre():
         true(want in text, want)
 
 
+def test_a_circle_at_each_speed_right_after_its_zigzag():
+    # the current walks: it is measured by a circle next to each zig-zag; the low-speed one
+    # ends in the turn back (the locked course left on the reversed course)
+    tr = T.Trial({"straight_s": 20, "max_distance_m": 1e6})
+    tr.start(0, 90.0)
+    b = _Boat()
+    order = []
+    t = 0
+    course_after_low_circle = None
+    heading_at_low_zigzag = None
+    for _ in range(400):
+        act, t = b.run(tr, t, 2)
+        for m in tr.drain_marks():
+            w = m.split()
+            if len(w) > 1 and w[1] == "start" and w[0] in ("zigzag", "circle", "speed"):
+                order.append(m)
+            if m.startswith("zigzag start") and heading_at_low_zigzag is None:
+                heading_at_low_zigzag = b.heading
+            if m.startswith("speed start rpm=1000"):
+                course_after_low_circle = b.course
+        if act is not None:
+            break
+    eq(act[0], "end")
+    names = [" ".join(m.split()[:2]) + " " + m.split()[-1] for m in order]
+    eq(names, ["speed start rpm=600", "zigzag start rpm=600", "circle start rpm=600",
+               "speed start turn=180", "zigzag start rpm=1000", "circle start rpm=1000",
+               "circle start rpm=1000"])
+    true("dir=+1" in order[2], order[2])
+    # the locked course left after the low circle: the zig-zag's base reversed (within the
+    # lead's one-epoch slack)
+    d = T.wrap180(course_after_low_circle - heading_at_low_zigzag - 180.0)
+    true(abs(d) < 20.0, d)
+    true(t / 1000.0 < 600, t)
+
+
 def _sail_until_action(tr, speed_mps):
     """Start tr and step it every 200 ms at speed_mps, on the spot, until it acts: (t_ms, action)."""
     tr.start(0, 0.0)
