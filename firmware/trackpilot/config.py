@@ -172,7 +172,7 @@ SCHEMA = (
     ("trial", (  # commissioning trial (trial.py, docs/COMMISSIONING.md)
         ("rpm_low", 600, "i", 100, 3000),
         ("rpm_high", 1000, "i", 100, 3000),
-        ("straight_s", 45, "i", 10, 300),
+        ("straight_s", 30, "i", 10, 300),
         ("step_max_s", 25, "i", 8, 120),
         ("zigzag_deg", 10, "i", 5, 30),
         ("circle_lead_deg", 150, "i", 40, 170),

@@ -6,7 +6,7 @@ the boat measures; it answers with what the pilot and the motor must do and queu
 (`drain_marks`) that the log keeps as TRIAL events. docs/COMMISSIONING.md is the crew's procedure.
 
 The script (each phase logged "TRIAL <phase> start/end ..." with its own numbers):
-    speed     rpm_low; at rpm_high after a 180 deg course change (the boat comes back)
+    speed     rpm_low; at rpm_high after the turn back that ends the low-speed circle
     straight  rpm_low, no keys for `straight_s`: compass offset, crab angle, current, RPM -> speed
     steps     at rpm_low, then rpm_high: settle the speed, then course steps of STEPS_DEG by keystroke in the
               pilot's Auto, each held until the heading settles (or `step_max_s`)
@@ -18,7 +18,9 @@ The script (each phase logged "TRIAL <phase> start/end ..." with its own numbers
               reversed course (the turn back to the second speed), so the current that sets the
               zig-zag's water speed is measured within a minute of it (it walks: measured 2-5 min
               later it moved T' by up to 20 %, docs/COMMISSIONING.md). At rpm_high after its
-              zig-zag: `circle_turns` turns to starboard, then to port
+              zig-zag: `circle_turns` turns to starboard, then to port. The trial stays within 10
+              minutes on slow-turning boats: each at most `circle_max_s` (the one at rpm_low
+              `circle_low_max_s`), the straight `straight_s` 30 s
 Limits (any one ends the trial and sends the boat to STANDBY): `max_distance_m` from the start
 point, `max_duration_s`, water speed below `min_speed_mps` for `min_speed_grace_s` once under
 way, any alarm (the mode machine aborts TRIAL on any alarm by itself).
@@ -38,7 +40,7 @@ STEPS_DEG = (10, -10, 20, -20)
 DEFAULTS = {
     "rpm_low": 600,
     "rpm_high": 1000,
-    "straight_s": 45,
+    "straight_s": 30,
     "speed_settle_s": 12,
     "step_settle_s": 4,
     "step_max_s": 25,
@@ -50,7 +52,8 @@ DEFAULTS = {
     "circle_lead_deg": 150,
     "circle_turns": 2,
     "circle_low_turns": 1,
-    "circle_max_s": 90,
+    "circle_max_s": 60,
+    "circle_low_max_s": 90,
     "max_distance_m": 600.0,
     "max_duration_s": 600,
     "min_speed_mps": 0.5,
@@ -225,7 +228,7 @@ class Trial:
                 goal = 360.0 * c["circle_low_turns"] + 180.0 - c["circle_lead_deg"]
             else:
                 goal = 360.0 * c["circle_turns"]
-            if self.circ_turned >= goal or in_s >= c["circle_max_s"]:
+            if self.circ_turned >= goal or in_s >= (c["circle_low_max_s"] if low else c["circle_max_s"]):
                 self._mark("circle end dir=%+d turned=%.0f in %.1f s" % (self.circ_dir, self.circ_turned, in_s))
                 if low:
                     self.lead_deg = 0
