@@ -121,10 +121,37 @@ def test_script_marks_each_manoeuvre():
         true(want in text, want)
 
 
+def _circle_order(cfg):
+    """Sail the script on the crude boat: (the speed/zig-zag/circle starts in order, the end)."""
+    tr = T.Trial(cfg)
+    tr.start(0, 90.0)
+    b = _Boat()
+    b.gain_per_s = 0.1
+    order = []
+    t = 0
+    act = None
+    for _ in range(400):
+        act, t = b.run(tr, t, 2)
+        for m in tr.drain_marks():
+            w = m.split()
+            if len(w) > 1 and w[1] == "start" and w[0] in ("zigzag", "circle", "speed"):
+                order.append(" ".join(w[:2]) + " " + w[-1])
+        if act is not None:
+            break
+    return order, act
+
+
+def test_by_default_the_circles_only_at_the_high_speed():
+    order, act = _circle_order({"straight_s": 20, "max_distance_m": 1e6})
+    eq(act[0], "end")
+    eq(order, ["speed start rpm=600", "zigzag start rpm=600", "speed start turn=180",
+               "zigzag start rpm=1000", "circle start rpm=1000", "circle start rpm=1000"])
+
+
 def test_a_circle_at_each_speed_right_after_its_zigzag():
-    # the current walks: it is measured by a circle next to each zig-zag; the low-speed one
-    # ends in the turn back (the locked course left on the reversed course)
-    tr = T.Trial({"straight_s": 20, "max_distance_m": 1e6})
+    # circle_low_turns: the current walks, measured by a circle next to each zig-zag; the
+    # low-speed one ends in the turn back (the locked course left on the reversed course)
+    tr = T.Trial({"straight_s": 20, "max_distance_m": 1e6, "circle_low_turns": 1})
     tr.start(0, 90.0)
     b = _Boat()
     b.gain_per_s = 0.1  # 15 deg/s at full lead, as a boat turns (not 30 deg an epoch)
