@@ -180,6 +180,8 @@ SCHEMA = (
         ("zigzag_deg", 10, "i", 5, 30),
         ("circle_lead_deg", 150, "i", 40, 170),
         ("circle_turns", 2, "i", 1, 5),
+        ("circle_max_s", 90, "i", 30, 300),
+        ("circle_low_turns", 0, "i", 0, 3),  # 1: a circle after the low-speed zig-zag (COMMISSIONING.md)
         ("max_distance_m", 600.0, "f", 50.0, 5000.0),
         ("max_duration_s", 600, "i", 60, 3600),
         ("min_speed_mps", 0.5, "f", 0.1, 3.0),

@@ -2,7 +2,7 @@
 bench's spreads (sim/boat_params.json "spread"), the true parameters hidden from the fit, then the
 fit's values against them.
 
-Usage: python -m trackpilot_tools.tune_bench N [--first SEED] [--out DIR]
+Usage: python -m trackpilot_tools.tune_bench N [--first SEED] [--out DIR] [--trial-set KEY=VALUE ...]
 Writes DIR/tune_bench.json (one row per boat) and prints the error table.
 """
 import argparse
@@ -23,7 +23,7 @@ def truth_of(p):
             "rudder_limit_deg": pl["rudder_limit_deg"], "length_m": b["length_m"]}
 
 
-def one_boat(seed, out_dir):
+def one_boat(seed, out_dir, trial_cfg=None):
     """Sail the trial on boat `seed`, fit it; a row of fitted vs true values."""
     from trackpilot_tools.sim import params as pm
     from trackpilot_tools.sim.runner import SimRun
@@ -31,7 +31,8 @@ def one_boat(seed, out_dir):
     spread = pm.load_spread()
     over, flat = pm.draw_spread(seed, spread, pm.load())
     out = Path(out_dir) / ("boat%03d" % seed)
-    run = SimRun(TRACK, out, seed=seed, scenario="calm", overrides=over, duration_s=900, trial=True)
+    run = SimRun(TRACK, out, seed=seed, scenario="calm", overrides=over, duration_s=900, trial=True,
+                 fw_config={"trial": trial_cfg} if trial_cfg else None)
     run.run()
     row = {"seed": seed, "drawn": flat, "sim_stop": run.stop_reason}
     return fit_boat(row, out, run.p)
@@ -107,7 +108,15 @@ def main(argv=None):
                     help="fit the trials already sailed in --out again (after a change of the fit)")
     ap.add_argument("--compare", action="store_true",
                     help="sail the accepted boats (tune_refit.json) with the tuned and the default configuration")
+    ap.add_argument("--trial-set", action="append", default=[], metavar="KEY=VALUE",
+                    help="a key of the firmware's trial section for the sail (e.g. circle_low_turns=1)")
     args = ap.parse_args(argv)
+    trial_cfg = {}
+    for kv in args.trial_set:
+        k, eq, v = kv.partition("=")
+        if not eq:
+            ap.error("--trial-set wants KEY=VALUE, got %r" % kv)
+        trial_cfg[k] = float(v) if "." in v else int(v)
     rows = []
     if args.compare:
         fits = json.loads((Path(args.out) / "tune_refit.json").read_text())
@@ -132,7 +141,7 @@ def main(argv=None):
         return 0
     Path(args.out).mkdir(parents=True, exist_ok=True)
     for seed in range(args.first, args.first + args.n):
-        row = one_boat(seed, args.out)
+        row = one_boat(seed, args.out, trial_cfg)
         rows.append(row)
         print(json.dumps({k: row.get(k) for k in ("seed", "fit", "truth", "refused")}), flush=True)
         (Path(args.out) / "tune_bench.json").write_text(json.dumps(rows, indent=1))

@@ -156,6 +156,13 @@ def report_text(fit, plots, args):
     L.append("| turning radius (circles, %.0f deg rudder) | %s m |" % (ci["rudder_deg"], _pm(ci["radius_m"], ci["radius_sd_m"], "%.2f")))
     L.append("| ... from K' at that rudder (check) | %.2f m |" % ci["radius_from_k_prime_m"])
     L.append("| current seen | %.2f m/s towards %.0f deg (+- %.2f) |" % (cur["speed_mps"], cur["to_deg"], cur["sd_mps"]))
+    if len(cur.get("by_time", ())) > 1:
+        # each group of circles' own current; the water speed takes it in time between them
+        L.append("| ... by circle group (trial time) | %s |" % ", ".join(
+            "%.0f s: %.2f m/s towards %.0f deg (+- %.2f)" % (
+                b["t_s"] - fit["trial"]["start_s"], math.hypot(b["east_mps"], b["north_mps"]),
+                math.degrees(math.atan2(b["east_mps"], b["north_mps"])) % 360.0, b["sd_mps"])
+            for b in cur["by_time"]))
     if "leeway_per_crosswind" in cur:
         L.append("| leeway (sideways drift per m/s of apparent crosswind, from the circles) | %.3f |"
                  % abs(cur["leeway_per_crosswind"]))

@@ -130,9 +130,14 @@ def _sel(a, t0, t1, skip_s=0.0):
 
 
 # --------------------------------------------------------------------------- current, speed
-def fit_current(trial, leeway=True):
+def fit_current(trial, leeway=True, per_group=True):
     """The current from the full circles: ground velocity = u (sin h, cos h) + v (cos h, -sin h) +
-    current, u and v per circle, the current shared (least squares).
+    current, u and v per circle, the current shared by back-to-back circles (least squares).
+
+    The current walks (0.02-0.03 m/s in a few minutes), and 0.03 m/s of error in the low-speed
+    zig-zag's water speed moved T' by 8-13 %: the trial sails a circle right after each zig-zag,
+    and each group of circles apart in time gets its own current (`by_time`; `current_at`
+    interpolates between them). per_group=False: one current for all (a trial before that).
 
     The sideways velocity v is the leeway: the wind pushes the hull sideways in proportion to the
     apparent crosswind, which turns all round in a circle. Taken as a constant v, its mean over
@@ -145,26 +150,37 @@ def fit_current(trial, leeway=True):
     a = trial["a"]
     sensor = "wind_speed" in a and np.mean(a["wind_speed"] > 0.3) > 0.5
     circles = []
+    spans = []
     for t0, t1, info in segments(trial, "circle"):
         m = _sel(a, t0, t1, 8.0) & a["vel_ok"] & a["heading_ok"]
         turned = abs(float(info.get("turned", 0.0)))
         if m.sum() < 50 or turned < 300:
             continue
         circles.append(m)
+        spans.append((t0, t1))
     if not circles:
         raise TuneError("no complete turning circle in the trial: repeat the turning circles "
                         "(the current and the turning radius come from them)")
     nc = len(circles)
+    # back-to-back circles share one current; circles apart in time (the one after the low-speed
+    # zig-zag, the pair after the high-speed one) each have their own: the current walks
+    group = []
+    for i, (t0, t1) in enumerate(spans):
+        group.append(group[-1] + 1 if i and t0 > spans[i - 1][1] + 5.0 else (group[-1] if i else 0))
+    ng = group[-1] + 1 if per_group else 1
+    if not per_group:
+        group = [0] * nc
     if not leeway:
         lee_cols = 0
     else:
         lee_cols = 1 if sensor else 2
+    nx = 2 * nc + lee_cols + 2 * ng  # u, v0 per circle; the leeway; east, north per group
     blocks, ys = [], []
     for i, m in enumerate(circles):
         h = a["heading"][m] * D2R
         n = len(h)
         sh, ch = np.sin(h), np.cos(h)
-        B = np.zeros((2 * n, 2 * nc + lee_cols + 2))
+        B = np.zeros((2 * n, nx))
         B[:n, 2 * i], B[n:, 2 * i] = sh, ch  # u along the heading
         B[:n, 2 * i + 1], B[n:, 2 * i + 1] = ch, -sh  # v0 to starboard
         if lee_cols == 1:
@@ -173,8 +189,9 @@ def fit_current(trial, leeway=True):
         elif lee_cols == 2:
             for j, f in enumerate((sh, ch)):
                 B[:n, 2 * nc + j], B[n:, 2 * nc + j] = f * ch, -f * sh
-        B[:n, -2] = 1.0
-        B[n:, -1] = 1.0
+        ce_col = 2 * nc + lee_cols + 2 * group[i]
+        B[:n, ce_col] = 1.0
+        B[n:, ce_col + 1] = 1.0
         blocks.append(B)
         ys.append(np.concatenate([a["sog"][m] * np.sin(a["cog"][m] * D2R),
                                   a["sog"][m] * np.cos(a["cog"][m] * D2R)]))
@@ -190,32 +207,53 @@ def fit_current(trial, leeway=True):
         cov = np.linalg.inv(A.T @ A) * s2 * infl
     except np.linalg.LinAlgError:
         cov = np.full((A.shape[1], A.shape[1]), np.inf)
-    ce, cn = float(x[-2]), float(x[-1])
-    sd = float(math.sqrt(max(cov[-2, -2] + cov[-1, -1], 0.0)))
-    if nc > 1:
-        # the spread between circles fitted alone (a current that changed, a wind that shifted)
-        per = []
-        for i in range(nc):
-            cols = [2 * i, 2 * i + 1] + list(range(2 * nc, A.shape[1]))
-            rows = slice(sum(len(yy) for yy in ys[:i]), sum(len(yy) for yy in ys[:i + 1]))
-            xi, *_ = np.linalg.lstsq(A[rows][:, cols], y[rows], rcond=None)
-            per.append((xi[-2], xi[-1]))
-        spread = float(np.std([math.hypot(pe - ce, pn - cn) for pe, pn in per]))
-        sd = max(sd, spread)
+    by_time = []
+    for g in range(ng):
+        members = [i for i in range(nc) if group[i] == g]
+        k = 2 * nc + lee_cols + 2 * g
+        ce, cn = float(x[k]), float(x[k + 1])
+        sd = float(math.sqrt(max(cov[k, k] + cov[k + 1, k + 1], 0.0)))
+        if len(members) > 1:
+            # the spread between its circles fitted alone (a current that changed, a wind that shifted)
+            per = []
+            for i in members:
+                cols = [2 * i, 2 * i + 1] + list(range(2 * nc, 2 * nc + lee_cols)) + [k, k + 1]
+                rows = slice(sum(len(yy) for yy in ys[:i]), sum(len(yy) for yy in ys[:i + 1]))
+                xi, *_ = np.linalg.lstsq(A[rows][:, cols], y[rows], rcond=None)
+                per.append((xi[-2], xi[-1]))
+            spread = float(np.std([math.hypot(pe - ce, pn - cn) for pe, pn in per]))
+            sd = max(sd, spread)
+        t_mid = 0.5 * (spans[members[0]][0] + spans[members[-1]][1])
+        by_time.append({"t_s": t_mid, "east_mps": ce, "north_mps": cn, "sd_mps": sd, "circles": len(members)})
+    # the headline: the last circles' (the pair at the high RPM, where main's trial measured it)
+    last = by_time[-1]
+    ce, cn = last["east_mps"], last["north_mps"]
     out = {"east_mps": ce, "north_mps": cn, "speed_mps": math.hypot(ce, cn),
-           "to_deg": math.degrees(math.atan2(ce, cn)) % 360.0, "sd_mps": sd, "circles": nc,
-           "leeway_model": ("none" if not leeway else "sensor" if sensor else "heading")}
+           "to_deg": math.degrees(math.atan2(ce, cn)) % 360.0, "sd_mps": last["sd_mps"], "circles": nc,
+           "leeway_model": ("none" if not leeway else "sensor" if sensor else "heading"),
+           "by_time": by_time}
     if lee_cols == 1:
         out["leeway_per_crosswind"] = float(x[2 * nc])  # m/s sideways per m/s of crosswind
     return out
+
+
+def current_at(cur, t):
+    """The current (east, north) at times t: linear in time between the circles' measurements,
+    the nearest one's before the first and after the last (the best guess for a current that
+    walks)."""
+    bt = cur.get("by_time") or [{"t_s": 0.0, "east_mps": cur["east_mps"], "north_mps": cur["north_mps"]}]
+    ts = np.array([b["t_s"] for b in bt])
+    return (np.interp(t, ts, [b["east_mps"] for b in bt]),
+            np.interp(t, ts, [b["north_mps"] for b in bt]))
 
 
 def water_speed(trial, cur):
     """Water speed along the heading at every record (ground velocity minus the current)."""
     a = trial["a"]
     h = a["heading"] * D2R
-    ve = a["sog"] * np.sin(a["cog"] * D2R) - cur["east_mps"]
-    vn = a["sog"] * np.cos(a["cog"] * D2R) - cur["north_mps"]
+    ce, cn = current_at(cur, a["t"])
+    ve = a["sog"] * np.sin(a["cog"] * D2R) - ce
+    vn = a["sog"] * np.cos(a["cog"] * D2R) - cn
     u = ve * np.sin(h) + vn * np.cos(h)
     return _smooth(u, 5)
 

@@ -63,6 +63,31 @@ def test_trial_tune_sim(trial_run, tmp_path, capsys):
     assert "AUTO" in text
 
 
+def test_trial_with_the_low_speed_circle_tune_sim(tmp_path, capsys):
+    """trial.circle_low_turns: a circle right after the low-speed zig-zag; tune fits a current for
+    it and one for the circles at the end, and the result sails."""
+    low = {"circle_low_turns": 1, "straight_s": 30, "circle_max_s": 60}
+    run, logs = _trial(tmp_path / "trial", fw_config={"trial": low})
+    assert run.trial_seen and run.stop_reason == "finished", run.stop_reason
+    rc = _cli(["tune", *map(str, logs), "--out", str(tmp_path / "tune"), "--no-plots"])
+    assert rc == 0, capsys.readouterr().err
+    fit = json.loads((tmp_path / "tune" / "fit.json").read_text())
+    assert fit["trial"]["duration_s"] <= 600
+    circles = [m for m in fit["trial"]["manoeuvres"] if m[0] == "circle"]
+    assert len(circles) == 3
+    zz_low = [m for m in fit["trial"]["manoeuvres"] if m[0] == "zigzag"][0]
+    assert 0 <= circles[0][1] - zz_low[2] < 2.0  # right after the low-speed zig-zag
+    assert len(fit["current"]["by_time"]) == 2
+    truth = run.p
+    assert fit["nomoto"]["t_prime"] == pytest.approx(truth["boat"]["t_prime"], rel=0.15)
+    assert fit["nomoto"]["k_prime"] == pytest.approx(truth["boat"]["k_prime"], rel=0.15)
+    assert "by circle group" in (tmp_path / "tune" / "report.md").read_text()
+    rc = _cli(["sim", str(TRACK), "--boat", str(tmp_path / "tune" / "fit.json"),
+               "--fw-config", str(tmp_path / "tune" / "config.json"), "--duration-s", "60",
+               "--out", str(tmp_path / "sim"), "--no-plots"])
+    assert rc == 0
+
+
 def test_tune_sweep_around_the_fit(trial_run, tmp_path, capsys):
     """--sweep on a tiny N: boats drawn around the fit sail the tuned and the default guidance on
     the robust bench's engine; config.json is the recommended one."""

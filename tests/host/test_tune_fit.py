@@ -154,6 +154,69 @@ def test_current_and_speed_map():
     assert sm["speed_mps"][1] == pytest.approx(2.5, abs=0.03)
 
 
+def _drifting_current_trial(cur_n0=0.30, cur_n_per_s=-0.0004, cur_e=0.1):
+    """Kinematics only: north, a circle at 1.5 m/s (100-160 s), a 10-deg zig-zag at 1.5 m/s
+    (162-222 s), then 2.5 m/s and two circles (300-360, 362-422 s), as the trial sails them; the
+    current's north component drifts linearly (0.16 m/s over the trial at the default)."""
+    t = np.arange(0.0, 430.0, 0.2)
+    hdg = np.zeros_like(t)
+    c1 = (t >= 100) & (t < 160)
+    hdg[c1] = 7.0 * (t[c1] - 100)  # 420 deg
+    zz = (t >= 162) & (t < 222)
+    hdg[zz] = 15.0 * np.sin(2 * math.pi * (t[zz] - 162) / 20.0)
+    c2 = (t >= 300) & (t < 360)
+    hdg[c2] = 12.0 * (t[c2] - 300)
+    c3 = (t >= 362) & (t < 422)
+    hdg[c3] = -12.0 * (t[c3] - 362)
+    u = np.where(t < 230, 1.5, 2.5)
+    h = hdg * D2R
+    cn = cur_n0 + cur_n_per_s * t
+    ve = u * np.sin(h) + cur_e
+    vn = u * np.cos(h) + cn
+    n = len(t)
+    a = {"t": t, "heading": hdg, "heading_ok": np.ones(n, bool), "vel_ok": np.ones(n, bool),
+         "sog": np.hypot(ve, vn), "cog": np.degrees(np.arctan2(ve, vn)) % 360.0,
+         "wind_speed": np.zeros(n), "wind_angle": np.zeros(n)}
+    segs = [("circle", 100.0, 160.0, {"dir": 1.0, "turned": 420.0, "rpm": 600.0}),
+            ("zigzag", 162.0, 222.0, {"deg": 10.0, "base": 0.0, "rpm": 600.0}),
+            ("circle", 300.0, 360.0, {"dir": 1.0, "turned": 720.0, "rpm": 1000.0}),
+            ("circle", 362.0, 422.0, {"dir": -1.0, "turned": 720.0, "rpm": 1000.0})]
+    return {"t0": 0.0, "t1": 425.0, "segments": segs, "a": a}, cn
+
+
+def test_current_measured_next_to_the_zigzag_gives_its_water_speed():
+    """The current walks between the zig-zag and the circles after it: a circle right after the
+    zig-zag measures it there (0.03 m/s of water speed moved T' by 8-13 % on the hidden boats)."""
+    tr, cn = _drifting_current_trial()
+    cur = F.fit_current(tr)
+    assert len(cur["by_time"]) == 2  # the circle after the zig-zag, the pair at the end
+    for b in cur["by_time"]:
+        assert b["north_mps"] == pytest.approx(0.30 - 0.0004 * b["t_s"], abs=0.005)
+        assert b["east_mps"] == pytest.approx(0.1, abs=0.005)
+    zz = (tr["a"]["t"] >= 165) & (tr["a"]["t"] <= 220)
+    u = F.water_speed(tr, cur)
+    assert np.mean(u[zz]) == pytest.approx(1.5, abs=0.01)
+    # one current shared by all circles (the fit before) is off by the drift over the zig-zag
+    u_one = F.water_speed(tr, F.fit_current(tr, per_group=False))
+    assert abs(np.mean(u_one[zz]) - 1.5) > 0.03
+    # a steady current: both agree
+    tr0, _ = _drifting_current_trial(cur_n_per_s=0.0)
+    c0 = F.fit_current(tr0)
+    assert [b["north_mps"] for b in c0["by_time"]] == pytest.approx([0.30, 0.30], abs=0.003)
+
+
+def test_current_at_holds_the_nearest_outside_the_circles():
+    cur = {"east_mps": 0.0, "north_mps": 0.2,
+           "by_time": [{"t_s": 100.0, "east_mps": 0.1, "north_mps": 0.3},
+                       {"t_s": 300.0, "east_mps": 0.1, "north_mps": 0.2}]}
+    e, n = F.current_at(cur, np.array([0.0, 100.0, 200.0, 300.0, 400.0]))
+    assert list(n) == pytest.approx([0.3, 0.3, 0.25, 0.2, 0.2])
+    assert list(e) == pytest.approx([0.1] * 5)
+    # a fit without by_time (an older fit.json): the one current
+    e, n = F.current_at({"east_mps": 0.05, "north_mps": -0.1}, np.array([0.0, 50.0]))
+    assert list(n) == pytest.approx([-0.1, -0.1])
+
+
 def test_compass_lag_and_offset():
     tr = _synthetic(comp_lag=0.6, comp_off=3.0)
     c = F.fit_compass(tr, gnss_latency_s=0.0)

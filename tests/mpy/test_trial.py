@@ -75,6 +75,7 @@ class _Boat:
         self.course = 90.0
         self.sog = 2.0
         self.dist = 0.0
+        self.gain_per_s = 1.0  # heading rate per deg of course error
 
     def run(self, tr, t0_ms, seconds, dt_ms=200):
         t = t0_ms
@@ -83,7 +84,7 @@ class _Boat:
             if tr.lead_deg:
                 self.course = self.heading + tr.lead_deg
             old = self.heading
-            self.heading += 0.4 * T.wrap180(self.course - self.heading) * dt_ms / 1000.0 * 2.5
+            self.heading += self.gain_per_s * T.wrap180(self.course - self.heading) * dt_ms / 1000.0
             rate = T.wrap180(self.heading - old) * 1000.0 / dt_ms
             act = tr.step(t, self.heading % 360.0, self.sog, self.dist, T.wrap180(self.course - self.heading), rate)
             self.course += tr.course_delta_deg
@@ -118,6 +119,69 @@ def test_script_marks_each_manoeuvre():
     for want in ("begin", "straight start", "step start +10 rpm=600", "step start -20 rpm=1000",
                  "zigzag start", "zigzag switch", "circle start dir=+1", "circle start dir=-1", "end end"):
         true(want in text, want)
+
+
+def _circle_order(cfg):
+    """Sail the script on the crude boat: (the speed/zig-zag/circle starts in order, the end)."""
+    tr = T.Trial(cfg)
+    tr.start(0, 90.0)
+    b = _Boat()
+    b.gain_per_s = 0.1
+    order = []
+    t = 0
+    act = None
+    for _ in range(400):
+        act, t = b.run(tr, t, 2)
+        for m in tr.drain_marks():
+            w = m.split()
+            if len(w) > 1 and w[1] == "start" and w[0] in ("zigzag", "circle", "speed"):
+                order.append(" ".join(w[:2]) + " " + w[-1])
+        if act is not None:
+            break
+    return order, act
+
+
+def test_by_default_the_circles_only_at_the_high_speed():
+    order, act = _circle_order({"straight_s": 20, "max_distance_m": 1e6})
+    eq(act[0], "end")
+    eq(order, ["speed start rpm=600", "zigzag start rpm=600", "speed start turn=180",
+               "zigzag start rpm=1000", "circle start rpm=1000", "circle start rpm=1000"])
+
+
+def test_a_circle_at_each_speed_right_after_its_zigzag():
+    # circle_low_turns: the current walks, measured by a circle next to each zig-zag; the
+    # low-speed one ends in the turn back (the locked course left on the reversed course)
+    tr = T.Trial({"straight_s": 20, "max_distance_m": 1e6, "circle_low_turns": 1})
+    tr.start(0, 90.0)
+    b = _Boat()
+    b.gain_per_s = 0.1  # 15 deg/s at full lead, as a boat turns (not 30 deg an epoch)
+    order = []
+    t = 0
+    course_after_low_circle = None
+    heading_at_low_zigzag = None
+    for _ in range(400):
+        act, t = b.run(tr, t, 2)
+        for m in tr.drain_marks():
+            w = m.split()
+            if len(w) > 1 and w[1] == "start" and w[0] in ("zigzag", "circle", "speed"):
+                order.append(m)
+            if m.startswith("zigzag start") and heading_at_low_zigzag is None:
+                heading_at_low_zigzag = float(m.split("base=")[1].split()[0])
+            if m.startswith("speed start rpm=1000"):
+                course_after_low_circle = b.course
+        if act is not None:
+            break
+    eq(act[0], "end")
+    names = [" ".join(m.split()[:2]) + " " + m.split()[-1] for m in order]
+    eq(names, ["speed start rpm=600", "zigzag start rpm=600", "circle start rpm=600",
+               "speed start turn=180", "zigzag start rpm=1000", "circle start rpm=1000",
+               "circle start rpm=1000"])
+    true("dir=+1" in order[2], order[2])
+    # the locked course left after the low circle: the zig-zag's base reversed (the zig-zag ends
+    # 10 deg off its base)
+    d = T.wrap180(course_after_low_circle - heading_at_low_zigzag - 180.0)
+    true(abs(d) < 20.0, d)
+    true(t / 1000.0 < 600, t)
 
 
 def _sail_until_action(tr, speed_mps):

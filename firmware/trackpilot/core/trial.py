@@ -6,15 +6,22 @@ the boat measures; it answers with what the pilot and the motor must do and queu
 (`drain_marks`) that the log keeps as TRIAL events. docs/COMMISSIONING.md is the crew's procedure.
 
 The script (each phase logged "TRIAL <phase> start/end ..." with its own numbers):
-    speed     rpm_low; at rpm_high after a 180 deg course change (the boat comes back)
+    speed     rpm_low; at rpm_high after a 180 deg course change (the boat comes back), or after the
+              turn back that ends the optional low-speed circle
     straight  rpm_low, no keys for `straight_s`: compass offset, crab angle, current, RPM -> speed
     steps     at rpm_low, then rpm_high: settle the speed, then course steps of STEPS_DEG by keystroke in the
               pilot's Auto, each held until the heading settles (or `step_max_s`)
     zigzag    after the steps at each speed: the locked course 2 x `zigzag_deg` to one side of the base course,
               switched to the other side when the heading passes `zigzag_deg` (a course
               just `zigzag_deg` off would be reached only asymptotically), `zigzag_legs` legs
-    circle    at rpm_high: the locked course kept `circle_lead_deg` ahead of the compass
-              (full rudder) for `circle_turns` turns to starboard, then to port
+    circle    the locked course kept `circle_lead_deg` ahead of the compass (full rudder). At
+              rpm_high after its zig-zag: `circle_turns` turns to starboard, then to port, each at
+              most `circle_max_s`. Optional (`circle_low_turns` >= 1, off by default): at rpm_low
+              right after its zig-zag, that many turns to starboard ending on the reversed course
+              (the turn back to the second speed), so the current that sets the zig-zag's water
+              speed is measured within a minute of it; at most `circle_low_max_s`. It stays within
+              10 minutes on slow-turning boats only with `straight_s` 30 and `circle_max_s` 60
+              (measured: docs/COMMISSIONING.md)
 Limits (any one ends the trial and sends the boat to STANDBY): `max_distance_m` from the start
 point, `max_duration_s`, water speed below `min_speed_mps` for `min_speed_grace_s` once under
 way, any alarm (the mode machine aborts TRIAL on any alarm by itself).
@@ -45,7 +52,9 @@ DEFAULTS = {
     "zigzag_max_s": 90,
     "circle_lead_deg": 150,
     "circle_turns": 2,
+    "circle_low_turns": 0,  # off: measured, not better yet (docs/COMMISSIONING.md)
     "circle_max_s": 90,
+    "circle_low_max_s": 90,
     "max_distance_m": 600.0,
     "max_duration_s": 600,
     "min_speed_mps": 0.5,
@@ -213,9 +222,19 @@ class Trial:
             d = 0.0 if self.circ_prev is None else wrap180(heading_deg - self.circ_prev)
             self.circ_prev = heading_deg
             self.circ_turned += d * self.circ_dir
-            if self.circ_turned >= 360.0 * c["circle_turns"] or in_s >= c["circle_max_s"]:
+            low = self.rpm_i + 1 < len(self.rpms)  # the optional circle after the low-speed zig-zag
+            if low:
+                # whole turns, then on until the locked course (lead ahead) is the reversed course:
+                # the pilot finishes the turn back on its own
+                goal = 360.0 * c["circle_low_turns"] + 180.0 - c["circle_lead_deg"]
+            else:
+                goal = 360.0 * c["circle_turns"]
+            if self.circ_turned >= goal or in_s >= (c["circle_low_max_s"] if low else c["circle_max_s"]):
                 self._mark("circle end dir=%+d turned=%.0f in %.1f s" % (self.circ_dir, self.circ_turned, in_s))
-                if self.circ_dir > 0:
+                if low:
+                    self.lead_deg = 0
+                    self._next_speed(t_ms)
+                elif self.circ_dir > 0:
                     self._begin_circle(t_ms, -1)
                 else:
                     return self._finish("end", "complete in %.0f s" % el_s)
@@ -228,14 +247,19 @@ class Trial:
 
     def _after_zigzag(self, t_ms):
         """The zig-zag at each speed (T = T' L / u changes with speed, the rudder's flow lag does
-        not: two speeds tell them apart); after the first, the turn back and the second speed."""
-        self.rpm_i += 1
-        if self.rpm_i < len(self.rpms):
-            self.rpm = int(self.rpms[self.rpm_i])
-            self.course_delta_deg += 180
-            self._enter(P_SPEED, t_ms, "rpm=%d turn=180" % self.rpm)
+        not: two speeds tell them apart); after each, a circle at its speed (the current next to
+        it, if `circle_low_turns`); the first circle ends in the turn back to the second speed."""
+        if self.rpm_i + 1 < len(self.rpms) and self.c["circle_low_turns"] < 1:
+            self.course_delta_deg += 180  # the turn back, then the next speed
+            self._next_speed(t_ms)
         else:
             self._begin_circle(t_ms, 1)
+
+    def _next_speed(self, t_ms):
+        """On to the next RPM, the pilot finishing the turn back (P_SPEED waits for it to settle)."""
+        self.rpm_i += 1
+        self.rpm = int(self.rpms[self.rpm_i])
+        self._enter(P_SPEED, t_ms, "rpm=%d turn=180" % self.rpm)
 
     def _begin_circle(self, t_ms, direction):
         self.circ_dir = direction
