@@ -1,20 +1,12 @@
 # The app's receiver configuration session (ubxcfg.ConfigSession): its end is logged once, and the
 # finished session (frames, log) is released, as are the parser's acknowledgement callbacks
 # (docs/MEMORY.md "What was cut"); a late ACK after that is ignored.
-import os
-
 import tpassert as t
+from _appwiring import HAVE_ASYNCIO, Wiring
 from trackpilot import config
 from trackpilot.devices import gnss, ubxcfg
 
 DIR = "/tmp/trackpilot_test_app_gnss_cfg"
-
-try:
-    import asyncio  # noqa: F401
-
-    HAVE_ASYNCIO = True
-except ImportError:
-    HAVE_ASYNCIO = False
 
 
 class _Uart:
@@ -25,30 +17,10 @@ class _Uart:
         self.out.append(bytes(b))
 
 
-class _Wiring:
+class _Wiring(Wiring):
     def __init__(self):
-        for d in (DIR, DIR + "/log"):
-            try:
-                os.mkdir(d)
-            except OSError:
-                pass
-        self.log_dir = DIR + "/log"
-        self.state_path = DIR + "/state.json"
-        self.lines = []
-        self.t = 0
+        Wiring.__init__(self, DIR)
         self.gnss_uart = _Uart()
-
-    def ticks_ms(self):
-        return self.t
-
-    def rand(self, n=1):
-        return 0
-
-    def statvfs(self, path):
-        return (4096, 4096, 10000, 9000, 9000, 0, 0, 0, 0, 255)
-
-    def debug(self, text):
-        self.lines.append(text)
 
 
 def _ack(app, frame, ack=True):

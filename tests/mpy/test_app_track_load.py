@@ -1,9 +1,9 @@
 # App.load_track never raises: a bad, too large or unreadable file, or one that does not fit in
 # memory, gives a TRACK event and a refusal, and the active track stays.
-import os
 import sys
 
 import tpassert as t
+from _appwiring import HAVE_ASYNCIO, Wiring
 from trackpilot import config
 from trackpilot.nav import track
 
@@ -12,43 +12,11 @@ import track_heap  # noqa: E402
 
 DIR = "/tmp/trackpilot_test_app_track"
 
-try:  # the App needs asyncio (the float32 build may lack it until it is built with it)
-    import asyncio  # noqa: F401
-
-    HAVE_ASYNCIO = True
-except ImportError:
-    HAVE_ASYNCIO = False
-
-
-class _Wiring:
-    def __init__(self):
-        for d in (DIR, DIR + "/log"):
-            try:
-                os.mkdir(d)
-            except OSError:
-                pass
-        self.log_dir = DIR + "/log"
-        self.state_path = DIR + "/state.json"
-        self.lines = []
-        self.t = 0
-
-    def ticks_ms(self):
-        return self.t
-
-    def rand(self, n=1):
-        return 0
-
-    def statvfs(self, path):
-        return (4096, 4096, 10000, 9000, 9000, 0, 0, 0, 0, 255)
-
-    def debug(self, text):
-        self.lines.append(text)
-
 
 def _app():
     from trackpilot.app import App
 
-    w = _Wiring()
+    w = Wiring(DIR)
     return App(w, config.defaults(), ()), w
 
 
