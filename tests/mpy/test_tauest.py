@@ -97,7 +97,7 @@ def _waves(est):
 
 
 def _law_feed(law, tau_s):
-    law._on_straight = True  # as LosLaw.step leaves it on a straight
+    law.on_straight = True  # as LosLaw.step leaves it on a straight
     notes = []
     h = 355.0
     for k in range(2400):

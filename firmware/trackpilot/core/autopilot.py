@@ -434,7 +434,7 @@ class Autopilot:
                 # the pilot's deadband (core/pilotdb.py): only on a los straight in AUTO, the law at
                 # its own tuning (a boat its swing watch retuned gets no relay on top)
                 law, db = self.law, self.pilot_db
-                active = (mm.mode == M.AUTO and getattr(law, "_on_straight", False) and law.la_scale == 1.0
+                active = (mm.mode == M.AUTO and getattr(law, "on_straight", False) and law.la_scale == 1.0
                           and law.lead_scale == 1.0 and law.clip_scale == 1.0)
                 if active and db is None:
                     from trackpilot.core.pilotdb import PilotDeadband

@@ -221,7 +221,7 @@ class LosLaw:
         self.tau = None
         self.tau_scale = 1.0
         self._tau_logged_s = 0.0
-        self._on_straight = False
+        self.on_straight = False
         # what the boat achieves in turns (nav/turnwatch.py; its state lives there: the ESP32 heap
         # keeps this object's attribute table small): the boat's, so it outlives reset()
         self.turns = TurnWatch()
@@ -420,8 +420,8 @@ class LosLaw:
         p_m = u_eff * (self.preview_s + self.turns.lead_s)  # the ram's own delay on top
         tan_rad, y, prev_rad, arc_r = self._path(prog, p_m)
         out.note = ""
-        self._on_straight = arc_r == 0.0 and -0.035 < prev_rad < 0.035 and not prog.finished
-        if self.turns.pending_m > 0.0 and self._on_straight:
+        self.on_straight = arc_r == 0.0 and -0.035 < prev_rad < 0.035 and not prog.finished
+        if self.turns.pending_m > 0.0 and self.on_straight:
             r = self._replan(prog, p_m)
             if r is not None:
                 tan_rad, y, prev_rad, arc_r = r
@@ -433,14 +433,14 @@ class LosLaw:
         u_la = u_eff
         if self._accel:
             v_plan = out.speed_cmd_mps
-            if not self._on_straight or u >= self.accel_done * v_plan:
+            if not self.on_straight or u >= self.accel_done * v_plan:
                 self._accel = False
             elif self.accel_la * v_plan > u_la:
                 u_la = self.accel_la * v_plan
         la = _clip(self.lookahead_gain * u_la * self.heading_tc_s * slow, self.lookahead_min_m,
                    self.lookahead_max_m) * self.tau_scale * self.la_scale
         if self.adapt_max_scale > 1.0:
-            self._watch(dt_s, y, la / self.la_scale / u_la, self._on_straight)
+            self._watch(dt_s, y, la / self.la_scale / u_la, self.on_straight)
         # adaptive crab (ALOS), anti-windup: frozen while clipped (the command or the approach
         # angle), far off or slow
         # held through corners: a turn's lag is not a steady crab, and what it learnt there
@@ -505,7 +505,7 @@ class LosLaw:
             from trackpilot.nav.tauest import TauEstimate
 
             self.tau = TauEstimate(self.heading_tc_s, hi_s=self.tau_max_s, window_s=self.tau_window_s)
-        if not self.tau.step(t_ms, locked_deg, heading_deg, ok and self._on_straight):
+        if not self.tau.step(t_ms, locked_deg, heading_deg, ok and self.on_straight):
             return ""
         tau_s = self.tau.tau_s
         la_s = self.lookahead_gain * self.heading_tc_s  # the configured T_la (clamps aside)
@@ -565,7 +565,7 @@ class LosLaw:
         else:
             what = "at its limits"
         text = "xte swings +-%.1f m, period %.0f s: %s" % (self.swing.amp, period_s, what)
-        self.out.note = text if not self.out.note else self.out.note + "; " + text
+        self._add_note(text)
 
     # ---- what the boat achieves in turns (docs/NAVIGATION.md "Fourth round") ----
     def _turn_watch(self, fix, prog, dt_s, arc_r, tan_rad):
@@ -599,7 +599,7 @@ class LosLaw:
             tw.uturn_told = k
             text += "; U-turn at %s %.0f m wide, the boat turns 2 x %.1f m: expect %.1f m past it" % (
                 self._track.waypoints[k].label(k), w, tw.radius_m, 2.0 * tw.radius_m - w)
-        self.out.note = text if not self.out.note else self.out.note + "; " + text
+        self._add_note(text)
 
     def _replan(self, prog, p_m):
         """Apply the asked arc radius on a straight; kept only if the boat stays on the straight
@@ -634,6 +634,11 @@ class LosLaw:
         return "rudder moves at %.1f deg/s (stop %.0f deg): preview %.1f s" % (
             tw.ram_dps, tw.stop_deg, self.preview_s + tw.lead_s)
 
+    def _add_note(self, text):
+        """Add text to this step's note (the swing watch, the overshoot and the turn watch may
+        each have something to say in one step)."""
+        self.out.note = text if not self.out.note else self.out.note + "; " + text
+
     def pilot_rudder(self, dt_s, rudder_deg):
         """Each new pilot status in AUTO: its reported rudder, dt_s since the last status. Counts
         the seconds the rudder stands at its stop (adapt_stop_deg) while the approach's overshoot
@@ -657,7 +662,7 @@ class LosLaw:
                 "lookahead x%.2f, clip %.0f deg") % (
             self.swing.peak, self.swing.prev_amp, self._stop_s, self.la_scale,
             self.clip_deg * self.clip_scale)
-        self.out.note = text if not self.out.note else self.out.note + "; " + text
+        self._add_note(text)
 
     def _speed(self, prog, leg):
         """The leg's speed, eased towards the next leg's before the waypoint (surge lag), and
