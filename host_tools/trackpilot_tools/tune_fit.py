@@ -164,9 +164,9 @@ def fit_current(trial, leeway=True, per_group=True):
     nc = len(circles)
     # back-to-back circles share one current; circles apart in time (the one after the low-speed
     # zig-zag, the pair after the high-speed one) each have their own: the current walks
-    group = []
-    for i, (t0, t1) in enumerate(spans):
-        group.append(group[-1] + 1 if i and t0 > spans[i - 1][1] + 5.0 else (group[-1] if i else 0))
+    group = [0]
+    for (_, prev_end), (start, _) in zip(spans, spans[1:]):
+        group.append(group[-1] + (1 if start > prev_end + 5.0 else 0))
     ng = group[-1] + 1 if per_group else 1
     if not per_group:
         group = [0] * nc
@@ -201,8 +201,8 @@ def fit_current(trial, leeway=True, per_group=True):
     e = y - A @ x
     s2 = float(e @ e) / max(1, len(y) - A.shape[1])
     # residuals are correlated in time (waves, gusts): widen by the east component's inflation
-    infl = _corr_inflation(np.concatenate([e[sum(len(yy) for yy in ys[:i]):][:len(ys[i]) // 2]
-                                           for i in range(nc)]))
+    row0 = np.cumsum([0] + [len(yy) for yy in ys])  # circle i's rows: row0[i] .. row0[i + 1]
+    infl = _corr_inflation(np.concatenate([e[row0[i]:row0[i] + len(ys[i]) // 2] for i in range(nc)]))
     try:
         cov = np.linalg.inv(A.T @ A) * s2 * infl
     except np.linalg.LinAlgError:
@@ -218,7 +218,7 @@ def fit_current(trial, leeway=True, per_group=True):
             per = []
             for i in members:
                 cols = [2 * i, 2 * i + 1] + list(range(2 * nc, 2 * nc + lee_cols)) + [k, k + 1]
-                rows = slice(sum(len(yy) for yy in ys[:i]), sum(len(yy) for yy in ys[:i + 1]))
+                rows = slice(row0[i], row0[i + 1])
                 xi, *_ = np.linalg.lstsq(A[rows][:, cols], y[rows], rcond=None)
                 per.append((xi[-2], xi[-1]))
             spread = float(np.std([math.hypot(pe - ce, pn - cn) for pe, pn in per]))
