@@ -121,62 +121,61 @@ def test_script_marks_each_manoeuvre():
         true(want in text, want)
 
 
-def _circle_order(cfg):
-    """Sail the script on the crude boat: (the speed/zig-zag/circle starts in order, the end)."""
+def _sail_script(cfg):
+    """Sail the script on the crude boat (15 deg/s at full lead, as a boat turns, not 30 deg an
+    epoch): ([(each mark, the locked course when it came)], the action that ended it, t_ms)."""
     tr = T.Trial(cfg)
     tr.start(0, 90.0)
     b = _Boat()
     b.gain_per_s = 0.1
-    order = []
+    marks = []
     t = 0
     act = None
     for _ in range(400):
         act, t = b.run(tr, t, 2)
         for m in tr.drain_marks():
-            w = m.split()
-            if len(w) > 1 and w[1] == "start" and w[0] in ("zigzag", "circle", "speed"):
-                order.append(" ".join(w[:2]) + " " + w[-1])
+            marks.append((m, b.course))
         if act is not None:
             break
-    return order, act
+    return marks, act, t
+
+
+def _starts(marks):
+    """The speed / zig-zag / circle starts among the marks, in order (whole)."""
+    out = []
+    for m, _ in marks:
+        w = m.split()
+        if len(w) > 1 and w[1] == "start" and w[0] in ("zigzag", "circle", "speed"):
+            out.append(m)
+    return out
+
+
+def _short(m):
+    w = m.split()
+    return " ".join(w[:2]) + " " + w[-1]
 
 
 def test_by_default_the_circles_only_at_the_high_speed():
-    order, act = _circle_order({"straight_s": 20, "max_distance_m": 1e6})
+    marks, act, _ = _sail_script({"straight_s": 20, "max_distance_m": 1e6})
     eq(act[0], "end")
-    eq(order, ["speed start rpm=600", "zigzag start rpm=600", "speed start turn=180",
-               "zigzag start rpm=1000", "circle start rpm=1000", "circle start rpm=1000"])
+    eq([_short(m) for m in _starts(marks)],
+       ["speed start rpm=600", "zigzag start rpm=600", "speed start turn=180",
+        "zigzag start rpm=1000", "circle start rpm=1000", "circle start rpm=1000"])
 
 
 def test_a_circle_at_each_speed_right_after_its_zigzag():
     # circle_low_turns: the current walks, measured by a circle next to each zig-zag; the
     # low-speed one ends in the turn back (the locked course left on the reversed course)
-    tr = T.Trial({"straight_s": 20, "max_distance_m": 1e6, "circle_low_turns": 1})
-    tr.start(0, 90.0)
-    b = _Boat()
-    b.gain_per_s = 0.1  # 15 deg/s at full lead, as a boat turns (not 30 deg an epoch)
-    order = []
-    t = 0
-    course_after_low_circle = None
-    heading_at_low_zigzag = None
-    for _ in range(400):
-        act, t = b.run(tr, t, 2)
-        for m in tr.drain_marks():
-            w = m.split()
-            if len(w) > 1 and w[1] == "start" and w[0] in ("zigzag", "circle", "speed"):
-                order.append(m)
-            if m.startswith("zigzag start") and heading_at_low_zigzag is None:
-                heading_at_low_zigzag = float(m.split("base=")[1].split()[0])
-            if m.startswith("speed start rpm=1000"):
-                course_after_low_circle = b.course
-        if act is not None:
-            break
+    marks, act, t = _sail_script({"straight_s": 20, "max_distance_m": 1e6, "circle_low_turns": 1})
     eq(act[0], "end")
-    names = [" ".join(m.split()[:2]) + " " + m.split()[-1] for m in order]
-    eq(names, ["speed start rpm=600", "zigzag start rpm=600", "circle start rpm=600",
-               "speed start turn=180", "zigzag start rpm=1000", "circle start rpm=1000",
-               "circle start rpm=1000"])
+    order = _starts(marks)
+    eq([_short(m) for m in order],
+       ["speed start rpm=600", "zigzag start rpm=600", "circle start rpm=600",
+        "speed start turn=180", "zigzag start rpm=1000", "circle start rpm=1000",
+        "circle start rpm=1000"])
     true("dir=+1" in order[2], order[2])
+    heading_at_low_zigzag = [float(m.split("base=")[1].split()[0]) for m, _ in marks if m.startswith("zigzag start")][0]
+    course_after_low_circle = [c for m, c in marks if m.startswith("speed start rpm=1000")][-1]
     # the locked course left after the low circle: the zig-zag's base reversed (the zig-zag ends
     # 10 deg off its base)
     d = T.wrap180(course_after_low_circle - heading_at_low_zigzag - 180.0)
