@@ -491,11 +491,13 @@ class LosLaw:
         lim = self.clip_deg * self.clip_scale if arc_r == 0.0 else self.clip_deg  # turns: as set
         out.clipped = rel > lim or rel < -lim
         rel = _clip(rel, -lim, lim)
-        # the soft clip (docs/NAVIGATION.md "Sixth round"): after the approach, on a straight
-        # the law still steers at its own clip: a swing's large errors reach the pilot at
-        # soft_gain, so a hot pilot keeps its rudder off the stop; not on top of a clip the
-        # watches already cut (that starves the boat)
-        if self.soft_gain < 1.0 and self.on_straight and not self._approach and self.clip_scale == 1.0:
+        # the soft clip (docs/NAVIGATION.md "Sixth round"): on a straight the boat has crossed
+        # twice since it began (after the approach or a corner's exit: a swing), while the law
+        # steers at its own clip: a swing's large errors reach the pilot at soft_gain, so a hot
+        # pilot keeps its rudder off the stop; not on top of a clip the watches already cut
+        # (that starves the boat)
+        if (self.soft_gain < 1.0 and self.on_straight and not self._approach and self.swing.closed >= 2
+                and self.clip_scale == 1.0):
             rel = _soft(rel, self.soft_knee_deg, self.soft_gain)
         out.rel_cmd_deg = rel
         out.heading_cmd_deg = wrap360(fix.heading_deg + rel)
