@@ -166,3 +166,19 @@ def test_slow_leg_settles_a_slow_pilot_at_1_mps():
     assert on["settled_rms_m"] < 0.5, on["settled_rms_m"]
     assert off["osc"]["oscillates"] or off["failure"], off
     assert off["settled_rms_m"] > 3.0 * on["settled_rms_m"], (off["settled_rms_m"], on["settled_rms_m"])
+
+
+def test_soft_clip_settles_a_hot_pilot_on_a_slow_ram():
+    """Issue 10, sixth round (docs/NAVIGATION.md "Sixth round: the soft clip"): boat 80 at 3 m/s
+    (ST2000+ gain 1.89 deg/deg on a 5.2 deg/s ram). After the approach its swing drives the rudder
+    stop to stop and the path xte swings +-12 m; with the swing's large course errors passed at
+    half gain beyond 8 deg (the default) it settles at 0.28 m. With the soft clip off
+    (guidance.los_soft_gain = 1, the law before) the same boat oscillates: the test can fail."""
+    job = {"case": "straight_3.0", "law": "los", "boat": 80, "timeout": 300.0}
+    on = BR.run_job(dict(job, fw=None))["metrics"]
+    assert not on["failure"], on.get("why")
+    assert not on["osc"]["oscillates"], on["osc"]
+    assert on["settled_rms_m"] < 0.5, on["settled_rms_m"]
+    off = BR.run_job(dict(job, fw={"guidance": {"los_soft_gain": 1.0}}))["metrics"]
+    assert off["osc"]["oscillates"] or off["failure"], off["osc"]
+    assert off["settled_rms_m"] > 4.0 * on["settled_rms_m"], (off["settled_rms_m"], on["settled_rms_m"])
