@@ -555,3 +555,52 @@ def test_slow_leg_alos_learns_only_along_the_path():
     t.eq(integral_deg(1.0, 6.0), 0.0)
     t.near(integral_deg(1.0, -2.5), 0.5 * along, 0.02 * along)
     t.near(integral_deg(2.0, -6.0), integral_deg(2.0, 0.0), 1e-9)
+
+
+def _soft_run(law, path, heading_deg=0.0):
+    """Sail the east offsets in path (one per 0.2 s, northwards at 2 m/s along _corner()'s first
+    leg); the relative commands."""
+    prog = Progress(_corner())
+    rels = []
+    for k, east_m in enumerate(path):
+        f = make_fix(east_m, 10.0 + 0.4 * k, heading_deg, sog_mps=2.0)
+        rels.append(_step(law, prog, f).rel_cmd_deg)
+    return rels
+
+
+def test_los_soft_clip_after_two_crossings():
+    # the approach from 5 m east, over the path to 3 m west, back to 6 m east (two crossings),
+    # then held 6 m east: the soft clip (knee 8 deg, gain 0.5) only from the second crossing on
+    path = [5.0 - 0.2 * k for k in range(40)] + [-3.0 + 0.3 * k for k in range(30)] + [6.0] * 20
+    off = _soft_run(LosLaw(soft_gain=1.0), path)
+    on = _soft_run(LosLaw(), path)
+    for k in range(len(path)):
+        if k < 40 or path[k] < 0.2:  # the approach and its overshoot: the law's own command
+            t.near(on[k], off[k], 1e-6, k)
+    soft = [k for k in range(70, 90) if abs(off[k]) > 8.0]
+    t.true(len(soft) >= 10, off[70:])  # 6 m off at 2 m/s: the command is beyond the knee
+    for k in soft:
+        want = (8.0 + 0.5 * (abs(off[k]) - 8.0)) * (1.0 if off[k] > 0 else -1.0)
+        t.near(on[k], want, 1e-3, (k, off[k], on[k]))
+    t.true(off[85] < -12.0, off[85])  # heading north, 6 m east: steer west (left), beyond the knee
+    # knee 12 deg: less of it softened
+    k12 = _soft_run(LosLaw(soft_knee_deg=12.0), path)
+    t.near(k12[85], -12.0 + 0.5 * (off[85] + 12.0), 1e-3)
+    # not on top of a clip the watches cut (the overshoot rule's 12 deg): the clip alone
+    cut = LosLaw()
+    cut.clip_scale = 0.5
+    ref = LosLaw(soft_gain=1.0)
+    ref.clip_scale = 0.5
+    t.eq(_soft_run(cut, path), _soft_run(ref, path))
+    # a corner's exit (the swing watch starts again after an arc): the law's own command until
+    # the straight has been crossed twice
+    law, ref = LosLaw(), LosLaw(soft_gain=1.0)
+    for x in (law, ref):
+        _soft_run(x, path)
+        x._watch(0.2, 0.0, 6.0, False)
+    t.eq(_soft_run(law, [6.0] * 20), _soft_run(ref, [6.0] * 20))
+    # a re-engage starts a new approach: the law's own command again until two crossings
+    law = LosLaw()
+    _soft_run(law, path)
+    law.reset()
+    t.eq(_soft_run(law, [6.0] * 20), _soft_run(LosLaw(soft_gain=1.0), [6.0] * 20))

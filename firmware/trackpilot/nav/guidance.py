@@ -71,6 +71,16 @@ def _defaults(obj):
         setattr(obj, k, obj.PARAMS[k][0])
 
 
+def _soft(v, knee, gain):
+    """v beyond +-knee grows at gain (a soft clip): the large course errors of a swing reach the
+    pilot at gain, the small ones of a settled straight as they are."""
+    if v > knee:
+        return knee + gain * (v - knee)
+    if v < -knee:
+        return -knee + gain * (v + knee)
+    return v
+
+
 def _clip(v, lo, hi):
     return lo if v < lo else (hi if v > hi else v)
 
@@ -200,6 +210,8 @@ class LosLaw:
         "turn_margin": (1.2, "1", 0.0, 3.0, "arcs planned at least this x the radius the boat achieved (0 = off)"),
         "ram_lead": (1.0, "1", 0.0, 3.0, "preview lengthened by this x the ram's extra delay (0 = off)"),
         "ram_ref_dps": (10.0, "deg/s", 1.0, 60.0, "the ram rate preview_s was set for"),
+        "soft_knee_deg": (8.0, "deg", 1.0, 120.0, "after the approach, on a straight: the relative command beyond this grows at soft_gain"),
+        "soft_gain": (0.5, "1", 0.0, 1.0, "... by this share of the law's (1 = off)"),
     }
 
     def __init__(self, **params):
@@ -479,6 +491,14 @@ class LosLaw:
         lim = self.clip_deg * self.clip_scale if arc_r == 0.0 else self.clip_deg  # turns: as set
         out.clipped = rel > lim or rel < -lim
         rel = _clip(rel, -lim, lim)
+        # the soft clip (docs/NAVIGATION.md "Sixth round"): on a straight the boat has crossed
+        # twice since it began (after the approach or a corner's exit: a swing), while the law
+        # steers at its own clip: a swing's large errors reach the pilot at soft_gain, so a hot
+        # pilot keeps its rudder off the stop; not on top of a clip the watches already cut
+        # (that starves the boat)
+        if (self.soft_gain < 1.0 and self.on_straight and not self._approach and self.swing.closed >= 2
+                and self.clip_scale == 1.0):
+            rel = _soft(rel, self.soft_knee_deg, self.soft_gain)
         out.rel_cmd_deg = rel
         out.heading_cmd_deg = wrap360(fix.heading_deg + rel)
         out.ref_course_deg = wrap360(prog.leg_bearing_deg + (tan_rad + prev_rad) / _RAD)
