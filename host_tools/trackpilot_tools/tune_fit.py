@@ -836,12 +836,16 @@ def current_drift(trial, cur):
 
 def current_uncertainty(trial, cur, nom, drift):
     """The part of K', T' and the delay's uncertainty that comes from the current used for the
-    water speed (the fit's own sd counts only the heading's noise): each manoeuvre's
-    sensitivity (`fit_nomoto`'s current_sensitivity) times (1) the error of the circles'
-    current it used (shared by every manoeuvre that used that group) and (2) the current's
-    walk between the manoeuvre and the nearest circles (`current_drift`'s q x the time gap,
-    independent per manoeuvre). Returns the sd of log K', log T' and the delay (s) from the
-    current, and the parts by cause (for the message)."""
+    water speed (the fit's own sd counts only the heading's noise), from each manoeuvre's
+    sensitivity (`fit_nomoto`'s current_sensitivity) times:
+    (1) the error of the circles' current (its least-squares sd; shared by every manoeuvre
+        that used that group);
+    (2) at a circle: the difference between its own current and its group's (a current that
+        changed while the circles were sailed; signed, the circles of a group together);
+    (3) at a zig-zag: the current's walk from it to the nearest circles, `current_drift`'s q x
+        the time gap (independent per zig-zag).
+    Returns the sd of log K', log T' and the delay (s) from the current, and the parts by cause
+    (for the message)."""
     bt = cur.get("by_time") or []
     sens = nom.get("current_sensitivity") or []
     if not bt or not sens:
@@ -849,6 +853,7 @@ def current_uncertainty(trial, cur, nom, drift):
     ts = np.array([b["t_s"] for b in bt])
     q = drift["q_mps2_per_s"]
     common = np.zeros((len(bt), 2, 3))  # per group, component, parameter
+    within = np.zeros((len(bt), 3))  # per group: the circles' own currents against the group's
     parts = []
     var = np.zeros(3)
     for sg in sens:
@@ -856,17 +861,31 @@ def current_uncertainty(trial, cur, nom, drift):
         w = np.array([np.interp(t_mid, ts, np.eye(len(bt))[j]) for j in range(len(bt))]) if len(bt) > 1 else np.ones(1)
         S = np.array([sg["d_east"], sg["d_north"]])  # (2, 3)
         common += w[:, None, None] * S[None]
-        gap = float(np.min(np.abs(ts - t_mid)))  # a circle: from the middle of its group
+        if sg["kind"] == "circle":
+            for j, b in enumerate(bt):
+                for pc in b.get("per_circle", ()):
+                    if sg["t0_s"] <= pc["t_s"] <= sg["t1_s"] and b["circles"] > 1:
+                        dc = np.array([b["east_mps"] - pc["east_mps"], b["north_mps"] - pc["north_mps"]])
+                        within[j] += dc @ S
+            continue
+        gap = float(np.min(np.abs(ts - t_mid)))
         v = q * gap * np.sum(S ** 2, axis=0)  # per parameter
         var += v
         parts.append({"cause": "walk", "kind": sg["kind"], "rpm": sg["rpm"], "gap_s": gap,
                       "walk_mps": math.sqrt(q * gap), "var": [float(x) for x in v]})
     for j, b in enumerate(bt):
-        sd_c = b.get("sd_fit_mps", b["sd_mps"])  # its walk within the group is in the walk part
+        sd_c = b.get("sd_fit_mps", b["sd_mps"])
         v = (sd_c ** 2 / 2.0) * np.sum(common[j] ** 2, axis=0)
         var += v
         parts.append({"cause": "circles", "t_s": b["t_s"], "sd_mps": sd_c, "circles": b["circles"],
                       "var": [float(x) for x in v]})
+        if b["circles"] > 1:
+            v = within[j] ** 2
+            var += v
+            spread = max(math.hypot(pc["east_mps"] - b["east_mps"], pc["north_mps"] - b["north_mps"])
+                         for pc in b["per_circle"])
+            parts.append({"cause": "circles_differ", "t_s": b["t_s"], "spread_mps": spread,
+                          "var": [float(x) for x in v]})
     return {"sd": [float(math.sqrt(v)) for v in var], "parts": parts}
 
 
@@ -1190,9 +1209,10 @@ def _current_cause(fit, part, key, lim):
                 "zig-zag at %d RPM and the circles that measure it%s): sail the turning circles again "
                 "right after that zig-zag, or the whole trial with trial.circle_low_turns 1" % (
                     100 * share, worst["walk_mps"], worst["gap_s"], worst["rpm"] or 0, seen))
-    if worst["cause"] == "walk":  # the circles themselves: the current changed while they were sailed
-        return ("+-%.0f %% of it from the current changing by about %.2f m/s while the turning circles "
-                "were sailed): repeat the turning circles" % (100 * share, worst["walk_mps"]))
+    if worst["cause"] == "circles_differ":  # the current changed while the circles were sailed
+        return ("+-%.0f %% of it from the current: the turning circles, each fitted alone, differ by up "
+                "to %.2f m/s from their common current): repeat the turning circles" % (
+                    100 * share, worst["spread_mps"]))
     return ("+-%.0f %% of it from the current the turning circles measured (+-%.2f m/s)): repeat the "
             "turning circles" % (100 * share, worst["sd_mps"]))
 

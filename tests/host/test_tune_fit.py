@@ -11,13 +11,15 @@ D2R = math.pi / 180.0
 
 def _synthetic(kp=1.1, tp=0.45, lag=0.2, comp_lag=0.6, comp_off=3.0, L=5.0, cur=(0.15, -0.1),
                noise_deg=0.3, seed=0, rudder_available=True, wave_deg=0.0, wave_gain=0.0,
-               wind_mps=0.0, yaw_coeff=0.02):
+               wind_mps=0.0, yaw_coeff=0.02, cur_before=(0.0, 0.0)):
     """A boat obeying the Nomoto model exactly: steps, a zig-zag and two circles of rudder; the
     pilot's compass a lagged true heading read at 2 Hz; GNSS at 5 Hz. `wave_deg`: wave yaw of that
     amplitude (3.3 s period) on the hull's heading, which the pilot answers over the course steps
     with `wave_gain` deg of rudder per deg of the wave yaw it saw 0.5 s earlier (its closed loop).
     `wind_mps`: a gusty wind from the north (+-25 %, 6 s) whose yaw rate -yaw_coeff Va^2 sin(angle)
-    the wind sensor reports (apparent = true wind here: the boat's own speed left out)."""
+    the wind sensor reports (apparent = true wind here: the boat's own speed left out).
+    `cur_before`: the current (east, north) is that much different before the circles (200 s)
+    from `cur` during them: a current that changed between the zig-zag and the circles."""
     rng = np.random.default_rng(seed)
     dt = 0.01
     t = np.arange(0.0, 330.0, dt)
@@ -63,8 +65,8 @@ def _synthetic(kp=1.1, tp=0.45, lag=0.2, comp_lag=0.6, comp_off=3.0, L=5.0, cur=
         c += (psis[k] - c) * dt / comp_lag
         comp[k] = c
     h = psis * D2R
-    ve = u * np.sin(h) + cur[0]
-    vn = u * np.cos(h) + cur[1]
+    ve = u * np.sin(h) + cur[0] + np.where(t < 200, cur_before[0], 0.0)
+    vn = u * np.cos(h) + cur[1] + np.where(t < 200, cur_before[1], 0.0)
     ig = np.arange(0, len(t), 20)  # 5 Hz GNSS
     tg = t[ig]
     read_t = np.floor(tg / 0.5) * 0.5  # the compass read at 2 Hz
