@@ -515,6 +515,7 @@ class _Windows:
         self.delta = self.delta_shifted(0.0)
         self.u = np.maximum(np.interp(tg, a["t"], u), 0.3)
         self.u_add = None  # a water speed offset (W, N) for the current's sensitivity
+        self.drop = None  # a window left out (the jackknife)
         hg = np.interp(tg, a["t"] - gnss_latency_s, a["heading"]) * D2R
         self.tg, self.hg = tg, hg
         # the wind's yaw moment: from the wind sensor's apparent wind (dynamic pressure x the sine of
@@ -603,6 +604,10 @@ class _Windows:
                 for j in range(nw):
                     A[sl, 3 * W + j] = samp[3 + j, wi]
             y = (psi - samp[0]).ravel()
+            if self.drop is not None:  # a window left out (the jackknife): its rows count for nothing
+                A[self.drop * M:(self.drop + 1) * M] = 0.0
+                y = y.copy()
+                y[self.drop * M:(self.drop + 1) * M] = 0.0
             x, *_ = np.linalg.lstsq(A, y, rcond=None)
             e = y - A @ x
             if want_parts:
@@ -636,8 +641,37 @@ class _Windows:
         return res
 
 
+def _levenberg_marquardt(f, x, steps, lo3, iters=40):
+    """Least squares of the residual function f from x (the third parameter, the delay, kept in
+    [lo3, 2]). Returns (x, residuals, cost)."""
+    x = np.array(x, dtype=float)
+    lam = 1e-2
+    r = f(x)
+    cost = float(r @ r)
+    for _ in range(iters):
+        J = np.column_stack([(f(x + np.eye(3)[i] * steps[i]) - r) / steps[i] for i in range(3)])
+        g = J.T @ r
+        H = J.T @ J
+        improved = False
+        for _ in range(10):
+            dx = -np.linalg.solve(H + lam * np.diag(np.diag(H) + 1e-9), g)
+            xn = x + dx
+            xn[2] = min(max(xn[2], lo3), 2.0)
+            rn = f(xn)
+            cn = float(rn @ rn)
+            if cn < cost:
+                x, r, cost = xn, rn, cn
+                lam = max(lam / 3, 1e-6)
+                improved = True
+                break
+            lam *= 4
+        if not improved or np.max(np.abs(dx)) < 1e-5:
+            break
+    return x, r, cost
+
+
 def fit_nomoto(trial, u, L=5.0, gnss_latency_s=0.075, n_meas=100, shared_bias=False, wind_terms=True,
-               model="dead", prefilter_s=0.5, kinds=NOMOTO_MANOEUVRES):
+               model="dead", prefilter_s=0.5, kinds=NOMOTO_MANOEUVRES, jackknife=False):
     """K', T' and the delay between the reported rudder and the heading, by output error with
     variable projection over the zig-zag and the circles (NOMOTO_MANOEUVRES); uncertainty from the
     Jacobian, widened for correlated residuals.
@@ -675,32 +709,21 @@ def fit_nomoto(trial, u, L=5.0, gnss_latency_s=0.075, n_meas=100, shared_bias=Fa
                 c = float(np.sum(f(p) ** 2))
                 if best is None or c < best[0]:
                     best = (c, p)
-    x = best[1]
-    lam = 1e-2
-    r = f(x)
-    cost = float(r @ r)
     steps = np.array([1e-3, 1e-3, 0.02])  # the delay: a step that still moves it off 0
-    J = None
-    for _ in range(40):
-        J = np.column_stack([(f(x + np.eye(3)[i] * steps[i]) - r) / steps[i] for i in range(3)])
-        g = J.T @ r
-        H = J.T @ J
-        improved = False
-        for _ in range(10):
-            dx = -np.linalg.solve(H + lam * np.diag(np.diag(H) + 1e-9), g)
-            xn = x + dx
-            xn[2] = min(max(xn[2], lo3), 2.0)
-            rn = f(xn)
-            cn = float(rn @ rn)
-            if cn < cost:
-                x, r, cost = xn, rn, cn
-                lam = max(lam / 3, 1e-6)
-                improved = True
-                break
-            lam *= 4
-        if not improved or np.max(np.abs(dx)) < 1e-5:
-            break
+    x, r, cost = _levenberg_marquardt(f, best[1], steps, lo3)
     J = np.column_stack([(f(x + np.eye(3)[i] * steps[i]) - r) / steps[i] for i in range(3)])
+    jack = None
+    if jackknife:
+        # each window left out in turn, from the fit's solution: the spread of the fits
+        jx = []
+        for wi in range(win.W):
+            win.drop = wi
+            try:
+                jx.append(_levenberg_marquardt(f, x, steps, lo3, iters=8)[0])
+            finally:
+                win.drop = None
+        jx = np.array(jx)
+        jack = np.sqrt((win.W - 1) / win.W * np.sum((jx - jx.mean(axis=0)) ** 2, axis=0))
     n = len(r)
     sigma2 = cost / max(1, n - 3 - (3 * win.W + win.n_wind if wind_terms else 2 * win.W + 1 if shared_bias else 3 * win.W))
     infl = _corr_inflation(r)
@@ -719,6 +742,7 @@ def fit_nomoto(trial, u, L=5.0, gnss_latency_s=0.075, n_meas=100, shared_bias=Fa
            "t_prime": tp, "t_prime_sd": tp * math.sqrt(max(cov[1, 1], 0.0)),
            "model": model, "rms_deg": math.sqrt(cost / n), "windows": win.W, "length_m": L,
            "wind_model": win.wind_source, "current_sensitivity": sens,
+           "jackknife_sd": None if jack is None else [float(v) for v in jack],
            "_plot": (win, fits)}
     if dead:
         # the simulator's boat takes it as its flow lag (same delay to first order)
@@ -1205,10 +1229,11 @@ def _current_cause(fit, part, key, lim):
             if "along_mps" in c:
                 seen = ", seen there %.2f m/s across and %.2f m/s along the course" % (
                     abs(c["across_mps"]), abs(c["along_mps"]))
+        which = "zig-zag at %d RPM" % worst["rpm"] if worst["rpm"] else "zig-zag"
         return ("+-%.0f %% of it from the current: it walks about %.2f m/s in the %.0f s between the "
-                "zig-zag at %d RPM and the circles that measure it%s): sail the turning circles again "
-                "right after that zig-zag, or the whole trial with trial.circle_low_turns 1" % (
-                    100 * share, worst["walk_mps"], worst["gap_s"], worst["rpm"] or 0, seen))
+                "%s and the circles that measure it%s): sail the turning circles again right after "
+                "that zig-zag, or the whole trial with trial.circle_low_turns 1" % (
+                    100 * share, worst["walk_mps"], worst["gap_s"], which, seen))
     if worst["cause"] == "circles_differ":  # the current changed while the circles were sailed
         return ("+-%.0f %% of it from the current: the turning circles, each fitted alone, differ by up "
                 "to %.2f m/s from their common current): repeat the turning circles" % (
