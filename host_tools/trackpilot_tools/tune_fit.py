@@ -224,7 +224,8 @@ def fit_current(trial, leeway=True, per_group=True):
                         "sd_mps": float(math.sqrt(max(ci[-2, -2] + ci[-1, -1], 0.0)))})
         if len(members) > 1:
             # the spread between its circles fitted alone (a current that changed, a wind that shifted)
-            spread = float(np.std([math.hypot(pc["east_mps"] - ce, pc["north_mps"] - cn) for pc in per]))
+            # (RMS, not the std of the distances: two circles either side are equally far, std 0)
+            spread = float(np.sqrt(np.mean([(pc["east_mps"] - ce) ** 2 + (pc["north_mps"] - cn) ** 2 for pc in per])))
             sd = max(sd, spread)
         t_mid = 0.5 * (spans[members[0]][0] + spans[members[-1]][1])
         by_time.append({"t_s": t_mid, "east_mps": ce, "north_mps": cn, "sd_mps": sd, "sd_fit_mps": sd_fit,
@@ -515,7 +516,6 @@ class _Windows:
         self.delta = self.delta_shifted(0.0)
         self.u = np.maximum(np.interp(tg, a["t"], u), 0.3)
         self.u_add = None  # a water speed offset (W, N) for the current's sensitivity
-        self.drop = None  # a window left out (the jackknife)
         hg = np.interp(tg, a["t"] - gnss_latency_s, a["heading"]) * D2R
         self.tg, self.hg = tg, hg
         # the wind's yaw moment: from the wind sensor's apparent wind (dynamic pressure x the sine of
@@ -604,10 +604,6 @@ class _Windows:
                 for j in range(nw):
                     A[sl, 3 * W + j] = samp[3 + j, wi]
             y = (psi - samp[0]).ravel()
-            if self.drop is not None:  # a window left out (the jackknife): its rows count for nothing
-                A[self.drop * M:(self.drop + 1) * M] = 0.0
-                y = y.copy()
-                y[self.drop * M:(self.drop + 1) * M] = 0.0
             x, *_ = np.linalg.lstsq(A, y, rcond=None)
             e = y - A @ x
             if want_parts:
@@ -671,7 +667,7 @@ def _levenberg_marquardt(f, x, steps, lo3, iters=40):
 
 
 def fit_nomoto(trial, u, L=5.0, gnss_latency_s=0.075, n_meas=100, shared_bias=False, wind_terms=True,
-               model="dead", prefilter_s=0.5, kinds=NOMOTO_MANOEUVRES, jackknife=False):
+               model="dead", prefilter_s=0.5, kinds=NOMOTO_MANOEUVRES):
     """K', T' and the delay between the reported rudder and the heading, by output error with
     variable projection over the zig-zag and the circles (NOMOTO_MANOEUVRES); uncertainty from the
     Jacobian, widened for correlated residuals.
@@ -712,18 +708,6 @@ def fit_nomoto(trial, u, L=5.0, gnss_latency_s=0.075, n_meas=100, shared_bias=Fa
     steps = np.array([1e-3, 1e-3, 0.02])  # the delay: a step that still moves it off 0
     x, r, cost = _levenberg_marquardt(f, best[1], steps, lo3)
     J = np.column_stack([(f(x + np.eye(3)[i] * steps[i]) - r) / steps[i] for i in range(3)])
-    jack = None
-    if jackknife:
-        # each window left out in turn, from the fit's solution: the spread of the fits
-        jx = []
-        for wi in range(win.W):
-            win.drop = wi
-            try:
-                jx.append(_levenberg_marquardt(f, x, steps, lo3, iters=8)[0])
-            finally:
-                win.drop = None
-        jx = np.array(jx)
-        jack = np.sqrt((win.W - 1) / win.W * np.sum((jx - jx.mean(axis=0)) ** 2, axis=0))
     n = len(r)
     sigma2 = cost / max(1, n - 3 - (3 * win.W + win.n_wind if wind_terms else 2 * win.W + 1 if shared_bias else 3 * win.W))
     infl = _corr_inflation(r)
@@ -742,7 +726,6 @@ def fit_nomoto(trial, u, L=5.0, gnss_latency_s=0.075, n_meas=100, shared_bias=Fa
            "t_prime": tp, "t_prime_sd": tp * math.sqrt(max(cov[1, 1], 0.0)),
            "model": model, "rms_deg": math.sqrt(cost / n), "windows": win.W, "length_m": L,
            "wind_model": win.wind_source, "current_sensitivity": sens,
-           "jackknife_sd": None if jack is None else [float(v) for v in jack],
            "_plot": (win, fits)}
     if dead:
         # the simulator's boat takes it as its flow lag (same delay to first order)
