@@ -850,7 +850,8 @@ def current_uncertainty(trial, cur, nom, drift):
     (2) at a circle: the difference between its own current and its group's (a current that
         changed while the circles were sailed; signed, the circles of a group together);
     (3) at a zig-zag: the current's walk from it to the nearest circles, `current_drift`'s q x
-        the time gap (independent per zig-zag).
+        the time gap, or the zig-zag's own check along its course (squared, less its variance)
+        when larger (independent per zig-zag).
     Returns the sd of log K', log T' and the delay (s) from the current, and the parts by cause
     (for the message)."""
     bt = cur.get("by_time") or []
@@ -876,10 +877,16 @@ def current_uncertainty(trial, cur, nom, drift):
                         within[j] += dc @ S
             continue
         gap = float(np.min(np.abs(ts - t_mid)))
-        v = q * gap * np.sum(S ** 2, axis=0)  # per parameter
+        w2 = q * gap
+        for c in drift.get("checks", ()):
+            # its own check along its course, where measured well enough: direct evidence there
+            if (c["kind"] == sg["kind"] and sg["t0_s"] <= c["t_s"] <= sg["t1_s"] and "along_mps" in c
+                    and c["along_sd_mps"] < 0.02):
+                w2 = max(w2, c["along_mps"] ** 2 - c["along_sd_mps"] ** 2)
+        v = w2 * np.sum(S ** 2, axis=0)  # per parameter
         var += v
         parts.append({"cause": "walk", "kind": sg["kind"], "rpm": sg["rpm"], "gap_s": gap,
-                      "walk_mps": math.sqrt(q * gap), "var": [float(x) for x in v]})
+                      "walk_mps": math.sqrt(w2), "var": [float(x) for x in v]})
     for j, b in enumerate(bt):
         sd_c = b.get("sd_fit_mps", b["sd_mps"])
         v = (sd_c ** 2 / 2.0) * np.sum(common[j] ** 2, axis=0)
