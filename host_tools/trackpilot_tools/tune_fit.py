@@ -1176,7 +1176,8 @@ def uncertainty_problems(fit):
         sd = fit[part][sd_key]
         v = sd / abs(fit[part][rel_key]) if rel_key else sd
         if not math.isfinite(v) or v > lim:
-            shown = ("+-%.0f %%" % (100 * v)) if rel_key else ("+-%.2f" % sd)
+            # one more digit where the rounded value would read as the limit itself
+            shown = ("+-%.*f %%" % (1 if round(100 * v) == round(100 * lim) else 0, 100 * v)) if rel_key else ("+-%.2f" % sd)
             limit = ("%.0f %%" % (100 * lim)) if rel_key else ("%.2f" % lim)
             why = _current_cause(fit, part, rel_key, lim) if rel_key else None
             if why:
