@@ -836,6 +836,7 @@ def current_drift(trial, cur):
         for k in ("along", "across"):
             if k + "_mps" in chk and chk[k + "_sd_mps"] < 0.02:  # a poorly measured one only adds noise
                 terms.append((chk[k + "_mps"] ** 2, chk[k + "_sd_mps"] ** 2 + v_ref, gap))
+    terms = [t for t in terms if all(math.isfinite(v) for v in t)]  # a circle too short to fit alone
     gaps = sum(g for _, _, g in terms)
     q = max(0.0, sum(d2 - n for d2, n, _ in terms)) / gaps if gaps > 0 else 0.0
     return {"q_mps2_per_s": q, "checks": checks}
