@@ -142,6 +142,13 @@ def report_text(fit, plots, args):
     L.append("| quantity | value |\n|---|---|")
     L.append("| K' | %s |" % _pm(n["k_prime"], n["k_prime_sd"]))
     L.append("| T' | %s |" % _pm(n["t_prime"], n["t_prime_sd"]))
+    if "t_prime_sd_fit" in n:
+        # the fit's own (the heading's noise) and the current's part (measured from the trial)
+        L.append("| ... of which the heading's noise / the current (its walk, the circles' error) | "
+                 "K' +- %.3g / +- %.3g, T' +- %.3g / +- %.3g; the current walked about %.3f m/s per "
+                 "minute (sqrt of its variance rate) |" % (
+                     n["k_prime_sd_fit"], n["k_prime_sd_current"], n["t_prime_sd_fit"],
+                     n["t_prime_sd_current"], math.sqrt(60.0 * fit["current_drift"]["q_mps2_per_s"])))
     if "dead_time_s" in n:
         L.append("| dead time, rudder report -> heading (the flow lag, the GNSS latency's error and the "
                  "report timing together: the flow lag itself is not identified) | %s s |" % _pm(

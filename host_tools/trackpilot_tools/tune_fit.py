@@ -212,19 +212,24 @@ def fit_current(trial, leeway=True, per_group=True):
         members = [i for i in range(nc) if group[i] == g]
         k = 2 * nc + lee_cols + 2 * g
         ce, cn = float(x[k]), float(x[k + 1])
-        sd = float(math.sqrt(max(cov[k, k] + cov[k + 1, k + 1], 0.0)))
+        sd_fit = float(math.sqrt(max(cov[k, k] + cov[k + 1, k + 1], 0.0)))
+        sd = sd_fit
+        # each circle fitted alone: the current's walk within the group (current_drift)
+        per = []
+        for i in members:
+            cols = [2 * i, 2 * i + 1] + list(range(2 * nc, 2 * nc + lee_cols)) + [k, k + 1]
+            rows = slice(row0[i], row0[i + 1])
+            xi, ci = _lstsq(A[rows][:, cols], y[rows])
+            per.append({"t_s": 0.5 * (spans[i][0] + spans[i][1]), "east_mps": float(xi[-2]), "north_mps": float(xi[-1]),
+                        "sd_mps": float(math.sqrt(max(ci[-2, -2] + ci[-1, -1], 0.0)))})
         if len(members) > 1:
             # the spread between its circles fitted alone (a current that changed, a wind that shifted)
-            per = []
-            for i in members:
-                cols = [2 * i, 2 * i + 1] + list(range(2 * nc, 2 * nc + lee_cols)) + [k, k + 1]
-                rows = slice(row0[i], row0[i + 1])
-                xi, *_ = np.linalg.lstsq(A[rows][:, cols], y[rows], rcond=None)
-                per.append((xi[-2], xi[-1]))
-            spread = float(np.std([math.hypot(pe - ce, pn - cn) for pe, pn in per]))
+            # (RMS, not the std of the distances: two circles either side are equally far, std 0)
+            spread = float(np.sqrt(np.mean([(pc["east_mps"] - ce) ** 2 + (pc["north_mps"] - cn) ** 2 for pc in per])))
             sd = max(sd, spread)
         t_mid = 0.5 * (spans[members[0]][0] + spans[members[-1]][1])
-        by_time.append({"t_s": t_mid, "east_mps": ce, "north_mps": cn, "sd_mps": sd, "circles": len(members)})
+        by_time.append({"t_s": t_mid, "east_mps": ce, "north_mps": cn, "sd_mps": sd, "sd_fit_mps": sd_fit,
+                        "circles": len(members), "per_circle": per})
     # the headline: the last circles' (the pair at the high RPM, where main's trial measured it)
     last = by_time[-1]
     ce, cn = last["east_mps"], last["north_mps"]
@@ -234,6 +239,8 @@ def fit_current(trial, leeway=True, per_group=True):
            "by_time": by_time}
     if lee_cols == 1:
         out["leeway_per_crosswind"] = float(x[2 * nc])  # m/s sideways per m/s of crosswind
+    elif lee_cols == 2:
+        out["leeway_sin_cos"] = [float(x[2 * nc]), float(x[2 * nc + 1])]  # v = a sin h + b cos h
     return out
 
 
@@ -508,7 +515,9 @@ class _Windows:
         self._delta_cache = {}
         self.delta = self.delta_shifted(0.0)
         self.u = np.maximum(np.interp(tg, a["t"], u), 0.3)
+        self.u_add = None  # a water speed offset (W, N) for the current's sensitivity
         hg = np.interp(tg, a["t"] - gnss_latency_s, a["heading"]) * D2R
+        self.tg, self.hg = tg, hg
         # the wind's yaw moment: from the wind sensor's apparent wind (dynamic pressure x the sine of
         # its angle, gusts included) when the log has it, else a constant wind's, turning with the
         # heading (A sin h + B cos h)
@@ -544,8 +553,9 @@ class _Windows:
         dt = self.dt
         delta = self.delta_shifted(dead_s)
         W, N = self.W, self.n
-        K = kp * self.u / L
-        T = tp * L / self.u
+        u = self.u if self.u_add is None else np.maximum(self.u + self.u_add, 0.3)
+        K = kp * u / L
+        T = tp * L / u
         aT = np.exp(-dt / T)
         ad = math.exp(-dt / lag) if lag > 1e-4 else 0.0
         nr = 3 + self.n_wind if self.wind_terms else 3
@@ -627,6 +637,35 @@ class _Windows:
         return res
 
 
+def _levenberg_marquardt(f, x, steps, lo3, iters=40):
+    """Least squares of the residual function f from x (the third parameter, the delay, kept in
+    [lo3, 2]). Returns (x, residuals, cost)."""
+    x = np.array(x, dtype=float)
+    lam = 1e-2
+    r = f(x)
+    cost = float(r @ r)
+    for _ in range(iters):
+        J = np.column_stack([(f(x + np.eye(3)[i] * steps[i]) - r) / steps[i] for i in range(3)])
+        g = J.T @ r
+        H = J.T @ J
+        improved = False
+        for _ in range(10):
+            dx = -np.linalg.solve(H + lam * np.diag(np.diag(H) + 1e-9), g)
+            xn = x + dx
+            xn[2] = min(max(xn[2], lo3), 2.0)
+            rn = f(xn)
+            cn = float(rn @ rn)
+            if cn < cost:
+                x, r, cost = xn, rn, cn
+                lam = max(lam / 3, 1e-6)
+                improved = True
+                break
+            lam *= 4
+        if not improved or np.max(np.abs(dx)) < 1e-5:
+            break
+    return x, r, cost
+
+
 def fit_nomoto(trial, u, L=5.0, gnss_latency_s=0.075, n_meas=100, shared_bias=False, wind_terms=True,
                model="dead", prefilter_s=0.5, kinds=NOMOTO_MANOEUVRES):
     """K', T' and the delay between the reported rudder and the heading, by output error with
@@ -666,31 +705,8 @@ def fit_nomoto(trial, u, L=5.0, gnss_latency_s=0.075, n_meas=100, shared_bias=Fa
                 c = float(np.sum(f(p) ** 2))
                 if best is None or c < best[0]:
                     best = (c, p)
-    x = best[1]
-    lam = 1e-2
-    r = f(x)
-    cost = float(r @ r)
     steps = np.array([1e-3, 1e-3, 0.02])  # the delay: a step that still moves it off 0
-    J = None
-    for _ in range(40):
-        J = np.column_stack([(f(x + np.eye(3)[i] * steps[i]) - r) / steps[i] for i in range(3)])
-        g = J.T @ r
-        H = J.T @ J
-        improved = False
-        for _ in range(10):
-            dx = -np.linalg.solve(H + lam * np.diag(np.diag(H) + 1e-9), g)
-            xn = x + dx
-            xn[2] = min(max(xn[2], lo3), 2.0)
-            rn = f(xn)
-            cn = float(rn @ rn)
-            if cn < cost:
-                x, r, cost = xn, rn, cn
-                lam = max(lam / 3, 1e-6)
-                improved = True
-                break
-            lam *= 4
-        if not improved or np.max(np.abs(dx)) < 1e-5:
-            break
+    x, r, cost = _levenberg_marquardt(f, best[1], steps, lo3)
     J = np.column_stack([(f(x + np.eye(3)[i] * steps[i]) - r) / steps[i] for i in range(3)])
     n = len(r)
     sigma2 = cost / max(1, n - 3 - (3 * win.W + win.n_wind if wind_terms else 2 * win.W + 1 if shared_bias else 3 * win.W))
@@ -699,6 +715,7 @@ def fit_nomoto(trial, u, L=5.0, gnss_latency_s=0.075, n_meas=100, shared_bias=Fa
         cov = np.linalg.inv(J.T @ J) * sigma2 * infl
     except np.linalg.LinAlgError:
         cov = np.full((3, 3), np.inf)
+    sens = _current_sensitivity(trial, win, f, x, r, J, kinds)
     kp, tp, d3 = math.exp(x[0]), math.exp(x[1]), float(x[2])
     if dead:
         _res, fits = win.residuals(kp, tp, 0.0, L, want_parts=True, dead_s=d3)
@@ -708,7 +725,7 @@ def fit_nomoto(trial, u, L=5.0, gnss_latency_s=0.075, n_meas=100, shared_bias=Fa
     out = {"k_prime": kp, "k_prime_sd": kp * math.sqrt(max(cov[0, 0], 0.0)),
            "t_prime": tp, "t_prime_sd": tp * math.sqrt(max(cov[1, 1], 0.0)),
            "model": model, "rms_deg": math.sqrt(cost / n), "windows": win.W, "length_m": L,
-           "wind_model": win.wind_source,
+           "wind_model": win.wind_source, "current_sensitivity": sens,
            "_plot": (win, fits)}
     if dead:
         # the simulator's boat takes it as its flow lag (same delay to first order)
@@ -717,6 +734,190 @@ def fit_nomoto(trial, u, L=5.0, gnss_latency_s=0.075, n_meas=100, shared_bias=Fa
     else:
         out.update({"rudder_lag_s": d3, "rudder_lag_sd_s": d3_sd})
     return out
+
+
+def _current_sensitivity(trial, win, f, x, r, J, kinds, eps_mps=0.01):
+    """How the fit (log K', log T', the delay) moves per m/s of error in the current used for one
+    manoeuvre's water speed (east and north): the water speed along the heading in that
+    manoeuvre's windows shifted by -eps (sin h, cos h) . (1, 0) or (0, 1), linearised
+    (dx = -J+ dr). The current is measured minutes away from the zig-zags (it walks), so this
+    is how much of the fit rests on it (`current_uncertainty`)."""
+    try:
+        Jp = np.linalg.pinv(J)
+    except np.linalg.LinAlgError:
+        return []
+    out = []
+    for kind, s0, s1, info in trial["segments"]:
+        if kind not in kinds:
+            continue
+        inside = (win.tg >= s0) & (win.tg <= s1)
+        if not inside.any():
+            continue
+        d = []
+        for comp in (np.sin, np.cos):  # east, north
+            win.u_add = np.where(inside, -eps_mps * comp(win.hg), 0.0)
+            try:
+                d.append([float(v) for v in -(Jp @ (f(x) - r)) / eps_mps])
+            finally:
+                win.u_add = None
+        out.append({"kind": kind, "rpm": info.get("rpm"), "t0_s": s0, "t1_s": s1,
+                    "d_east": d[0], "d_north": d[1]})
+    return out
+
+
+def _leeway_at(cur, a, m):
+    """The fitted leeway (sideways water velocity, m/s to starboard) at the records m."""
+    if "leeway_per_crosswind" in cur:
+        return cur["leeway_per_crosswind"] * a["wind_speed"][m] * np.sin(a["wind_angle"][m] * D2R)
+    if "leeway_sin_cos" in cur:
+        ls, lc = cur["leeway_sin_cos"]
+        h = a["heading"][m] * D2R
+        return ls * np.sin(h) + lc * np.cos(h)
+    return np.zeros(int(np.sum(m)))
+
+
+def current_drift(trial, cur):
+    """How fast the current walked during this trial, from the log alone.
+
+    Checks: (1) at each zig-zag the sideways ground velocity (minus the fitted leeway, and a
+    sway term in the yaw rate) measures the current there: ground . (cos h, -sin h) =
+    east cos h - north sin h; the component across the base course well, the one along it
+    through the zig-zag's +-10-25 deg of heading (less well); its difference from the current
+    `current_at` gives there is a measured change; (2) successive groups of circles. The walk
+    is taken as a random walk, variance q x time per component, q pooled over the checks
+    (each squared change less its measurement variance, summed, over the summed time gaps).
+    Returns {"q_mps2_per_s", "checks": [...]}: each zig-zag's check with its change."""
+    a = trial["a"]
+    bt = cur.get("by_time") or []
+    if not bt:
+        return {"q_mps2_per_s": 0.0, "checks": []}
+    ts = np.array([b["t_s"] for b in bt])
+    var_grp = np.array([b.get("sd_fit_mps", b["sd_mps"]) ** 2 / 2.0 for b in bt])  # per component
+    terms = []  # (squared change, its noise variance, time gap)
+    checks = []
+    # successive circles, each fitted alone (within a group and between groups)
+    per = sorted((pc for b in bt for pc in b.get("per_circle", ())), key=lambda pc: pc["t_s"])
+    for p0, p1 in zip(per, per[1:]):
+        for k in ("east_mps", "north_mps"):
+            terms.append(((p1[k] - p0[k]) ** 2, (p0["sd_mps"] ** 2 + p1["sd_mps"] ** 2) / 2.0, p1["t_s"] - p0["t_s"]))
+    for kind, t0, t1, info in trial["segments"]:
+        if kind not in ("straight", "step", "zigzag"):
+            continue
+        m = _sel(a, t0, t1) & a["vel_ok"] & a["heading_ok"]
+        if m.sum() < 25:
+            continue
+        h = a["heading"][m] * D2R
+        ve = a["sog"][m] * np.sin(a["cog"][m] * D2R)
+        vn = a["sog"][m] * np.cos(a["cog"][m] * D2R)
+        y = ve * np.cos(h) - vn * np.sin(h) - _leeway_at(cur, a, m)
+        base = float(np.mean(h))
+        dh = h - base
+        # across the mean heading: y = c_across cos dh - c_along sin dh (+ sway in the turns);
+        # along only where the heading swung (the zig-zag, the larger steps)
+        swung = float(np.std(dh)) > 3.0 * D2R
+        cols = [np.cos(dh)]
+        if swung:
+            cols += [-np.sin(dh), np.gradient(_smooth(a["heading"][m], 5), a["t"][m])]
+        xs, cov = _lstsq(np.column_stack(cols), y)
+        t_mid = 0.5 * (t0 + t1)
+        ce, cn = current_at(cur, np.array([t_mid]))
+        along = np.array([math.sin(base), math.cos(base)])
+        across = np.array([math.cos(base), -math.sin(base)])
+        ref = np.array([ce[0], cn[0]])
+        v_ref = float(np.interp(t_mid, ts, var_grp))
+        gap = float(np.min(np.abs(ts - t_mid)))
+        chk = {"kind": kind, "rpm": info.get("rpm"), "t_s": t_mid, "gap_s": gap,
+               "across_mps": float(xs[0] - ref @ across), "across_sd_mps": float(math.sqrt(max(cov[0, 0], 0.0)))}
+        if swung:
+            chk.update({"along_mps": float(xs[1] - ref @ along), "along_sd_mps": float(math.sqrt(max(cov[1, 1], 0.0)))})
+        if not all(math.isfinite(v) for v in chk.values() if isinstance(v, float)):
+            continue
+        checks.append(chk)
+        for k in ("along", "across"):
+            if k + "_mps" in chk and chk[k + "_sd_mps"] < 0.02:  # a poorly measured one only adds noise
+                terms.append((chk[k + "_mps"] ** 2, chk[k + "_sd_mps"] ** 2 + v_ref, gap))
+    terms = [t for t in terms if all(math.isfinite(v) for v in t)]  # a circle too short to fit alone
+    gaps = sum(g for _, _, g in terms)
+    q = max(0.0, sum(d2 - n for d2, n, _ in terms)) / gaps if gaps > 0 else 0.0
+    return {"q_mps2_per_s": q, "checks": checks}
+
+
+def current_uncertainty(trial, cur, nom, drift):
+    """The part of K', T' and the delay's uncertainty that comes from the current used for the
+    water speed (the fit's own sd counts only the heading's noise), from each manoeuvre's
+    sensitivity (`fit_nomoto`'s current_sensitivity) times:
+    (1) the error of the circles' current (its least-squares sd; shared by every manoeuvre
+        that used that group);
+    (2) at a circle: the difference between its own current and its group's (a current that
+        changed while the circles were sailed; signed, the circles of a group together);
+    (3) at a zig-zag: the current's walk from it to the nearest circles, `current_drift`'s q x
+        the time gap, or the zig-zag's own check along its course (squared, less its variance)
+        when larger (independent per zig-zag).
+    Returns the sd of log K', log T' and the delay (s) from the current, and the parts by cause
+    (for the message)."""
+    bt = cur.get("by_time") or []
+    sens = nom.get("current_sensitivity") or []
+    if not bt or not sens:
+        return {"sd": [0.0, 0.0, 0.0], "parts": []}
+    ts = np.array([b["t_s"] for b in bt])
+    q = drift["q_mps2_per_s"]
+    common = np.zeros((len(bt), 2, 3))  # per group, component, parameter
+    within = np.zeros((len(bt), 3))  # per group: the circles' own currents against the group's
+    parts = []
+    var = np.zeros(3)
+    for sg in sens:
+        t_mid = 0.5 * (sg["t0_s"] + sg["t1_s"])
+        w = np.array([np.interp(t_mid, ts, np.eye(len(bt))[j]) for j in range(len(bt))]) if len(bt) > 1 else np.ones(1)
+        S = np.array([sg["d_east"], sg["d_north"]])  # (2, 3)
+        common += w[:, None, None] * S[None]
+        if sg["kind"] == "circle":
+            for j, b in enumerate(bt):
+                for pc in b.get("per_circle", ()):
+                    if sg["t0_s"] <= pc["t_s"] <= sg["t1_s"] and b["circles"] > 1:
+                        dc = np.array([b["east_mps"] - pc["east_mps"], b["north_mps"] - pc["north_mps"]])
+                        within[j] += dc @ S
+            continue
+        gap = float(np.min(np.abs(ts - t_mid)))
+        w2 = q * gap
+        for c in drift.get("checks", ()):
+            # its own check along its course, where measured well enough: direct evidence there
+            if (c["kind"] == sg["kind"] and sg["t0_s"] <= c["t_s"] <= sg["t1_s"] and "along_mps" in c
+                    and c["along_sd_mps"] < 0.02):
+                w2 = max(w2, c["along_mps"] ** 2 - c["along_sd_mps"] ** 2)
+        v = w2 * np.sum(S ** 2, axis=0)  # per parameter
+        var += v
+        parts.append({"cause": "walk", "kind": sg["kind"], "rpm": sg["rpm"], "gap_s": gap,
+                      "walk_mps": math.sqrt(w2), "var": [float(x) for x in v]})
+    for j, b in enumerate(bt):
+        sd_c = b.get("sd_fit_mps", b["sd_mps"])
+        v = (sd_c ** 2 / 2.0) * np.sum(common[j] ** 2, axis=0)
+        var += v
+        parts.append({"cause": "circles", "t_s": b["t_s"], "sd_mps": sd_c, "circles": b["circles"],
+                      "var": [float(x) for x in v]})
+        if b["circles"] > 1:
+            v = within[j] ** 2
+            var += v
+            spread = max(math.hypot(pc["east_mps"] - b["east_mps"], pc["north_mps"] - b["north_mps"])
+                         for pc in b["per_circle"])
+            parts.append({"cause": "circles_differ", "t_s": b["t_s"], "spread_mps": spread,
+                          "var": [float(x) for x in v]})
+    return {"sd": [float(math.sqrt(v)) for v in var], "parts": parts}
+
+
+def add_current_uncertainty(nom, cur, unc):
+    """K', T' and delay sd = the fit's (noise) and the current's (`current_uncertainty`) combined;
+    the fit's own kept as *_sd_fit."""
+    for i, key in enumerate(("k_prime", "t_prime")):
+        rel_fit = nom[key + "_sd"] / nom[key]
+        nom[key + "_sd_fit"] = nom[key + "_sd"]
+        nom[key + "_sd_current"] = nom[key] * unc["sd"][i]
+        nom[key + "_sd"] = nom[key] * math.sqrt(rel_fit ** 2 + unc["sd"][i] ** 2)
+    for key in ("dead_time_sd_s", "rudder_lag_sd_s"):
+        if key in nom:
+            nom[key.replace("_sd_s", "_sd_fit_s")] = nom[key]
+            nom[key] = math.sqrt(nom[key] ** 2 + unc["sd"][2] ** 2)
+    nom["current_uncertainty"] = unc
+    return nom
 
 
 # --------------------------------------------------------------------------- circle, steps
@@ -976,9 +1177,14 @@ def uncertainty_problems(fit):
         sd = fit[part][sd_key]
         v = sd / abs(fit[part][rel_key]) if rel_key else sd
         if not math.isfinite(v) or v > lim:
-            shown = ("+-%.0f %%" % (100 * v)) if rel_key else ("+-%.2f" % sd)
+            # one more digit where the rounded value would read as the limit itself
+            shown = ("+-%.*f %%" % (1 if round(100 * v) == round(100 * lim) else 0, 100 * v)) if rel_key else ("+-%.2f" % sd)
             limit = ("%.0f %%" % (100 * lim)) if rel_key else ("%.2f" % lim)
-            out.append("%s too uncertain (%s, 1 sigma, limit %s): repeat %s" % (name, shown, limit, redo))
+            why = _current_cause(fit, part, rel_key, lim) if rel_key else None
+            if why:
+                out.append("%s too uncertain (%s, 1 sigma, limit %s; %s" % (name, shown, limit, why))
+            else:
+                out.append("%s too uncertain (%s, 1 sigma, limit %s): repeat %s" % (name, shown, limit, redo))
     hunts = fit["_trial"].get("hunts", ())
     if hunts:
         # its own loop limit-cycles: every response measured is the pilot's hunting, not the boat's,
@@ -988,6 +1194,44 @@ def uncertainty_problems(fit):
         out.append("the pilot hunted during the trial (%s, %s): lower its response/rudder gain, then "
                    "sail the whole trial again" % (what, _manoeuvre_at(fit, t)))
     return out
+
+
+def _current_cause(fit, part, key, lim):
+    """When the current's uncertainty (not the heading's noise) makes a Nomoto constant too
+    uncertain: the part that does, in the crew's words, with what to sail again; else None."""
+    if part != "nomoto":
+        return None
+    nom = fit[part]
+    i = {"k_prime": 0, "t_prime": 1}[key]
+    rel_fit = nom.get(key + "_sd_fit", nom[key + "_sd"]) / nom[key]
+    if rel_fit > lim:
+        return None  # too uncertain already from the heading's noise: the old advice holds
+    parts = (nom.get("current_uncertainty") or {}).get("parts") or []
+    if not parts:
+        return None
+    worst = max(parts, key=lambda p: p["var"][i])
+    share = math.sqrt(worst["var"][i])
+    if worst["cause"] == "walk" and worst["kind"] == "zigzag":
+        chk = [c for c in (fit.get("current_drift") or {}).get("checks", ())
+               if c["kind"] == "zigzag" and c.get("rpm") == worst["rpm"]]
+        seen = ""
+        if chk:
+            c = chk[0]
+            seen = ", seen there %.2f m/s across the course" % abs(c["across_mps"])
+            if "along_mps" in c:
+                seen = ", seen there %.2f m/s across and %.2f m/s along the course" % (
+                    abs(c["across_mps"]), abs(c["along_mps"]))
+        which = "zig-zag at %d RPM" % worst["rpm"] if worst["rpm"] else "zig-zag"
+        return ("+-%.0f %% of it from the current: it walks about %.2f m/s in the %.0f s between the "
+                "%s and the circles that measure it%s): sail the turning circles again right after "
+                "that zig-zag, or the whole trial with trial.circle_low_turns 1" % (
+                    100 * share, worst["walk_mps"], worst["gap_s"], which, seen))
+    if worst["cause"] == "circles_differ":  # the current changed while the circles were sailed
+        return ("+-%.0f %% of it from the current: the turning circles, each fitted alone, differ by up "
+                "to %.2f m/s from their common current): repeat the turning circles" % (
+                    100 * share, worst["spread_mps"]))
+    return ("+-%.0f %% of it from the current the turning circles measured (+-%.2f m/s)): repeat the "
+            "turning circles" % (100 * share, worst["sd_mps"]))
 
 
 def _manoeuvre_at(fit, t_s):
@@ -1024,13 +1268,15 @@ def fit_all(d, length_m=5.0, gnss_latency_s=0.075):
     sm = fit_speed_map(tr, u)
     comp = fit_compass(tr, gnss_latency_s)
     nom = fit_nomoto(tr, u, length_m, gnss_latency_s)
+    drift = current_drift(tr, cur)
+    add_current_uncertainty(nom, cur, current_uncertainty(tr, cur, nom, drift))
     circ = fit_circle(tr, u, nom)
     steps = fit_steps(tr)
     zz = fit_zigzag(tr)
     fit = {"trial": {"start_s": tr["t0"], "duration_s": tr["t1"] - tr["t0"],
                      "manoeuvres": [(k, round(t0 - tr["t0"], 1), round(t1 - tr["t0"], 1)) for k, t0, t1, _ in tr["segments"]]},
            "current": cur, "speed_map": sm, "compass": comp, "nomoto": nom, "circle": circ,
-           "steps": steps, "zigzag": zz, "_trial": tr, "_u": u}
+           "steps": steps, "zigzag": zz, "current_drift": drift, "_trial": tr, "_u": u}
     fit["problems"] = uncertainty_problems(fit)
     fit["warnings"] = warnings(fit)
     fit["config"], fit["margins"] = derive_guidance(nom, circ, steps, sm)

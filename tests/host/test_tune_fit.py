@@ -11,13 +11,15 @@ D2R = math.pi / 180.0
 
 def _synthetic(kp=1.1, tp=0.45, lag=0.2, comp_lag=0.6, comp_off=3.0, L=5.0, cur=(0.15, -0.1),
                noise_deg=0.3, seed=0, rudder_available=True, wave_deg=0.0, wave_gain=0.0,
-               wind_mps=0.0, yaw_coeff=0.02):
+               wind_mps=0.0, yaw_coeff=0.02, cur_before=(0.0, 0.0)):
     """A boat obeying the Nomoto model exactly: steps, a zig-zag and two circles of rudder; the
     pilot's compass a lagged true heading read at 2 Hz; GNSS at 5 Hz. `wave_deg`: wave yaw of that
     amplitude (3.3 s period) on the hull's heading, which the pilot answers over the course steps
     with `wave_gain` deg of rudder per deg of the wave yaw it saw 0.5 s earlier (its closed loop).
     `wind_mps`: a gusty wind from the north (+-25 %, 6 s) whose yaw rate -yaw_coeff Va^2 sin(angle)
-    the wind sensor reports (apparent = true wind here: the boat's own speed left out)."""
+    the wind sensor reports (apparent = true wind here: the boat's own speed left out).
+    `cur_before`: the current (east, north) is that much different before the circles (200 s)
+    from `cur` during them: a current that changed between the zig-zag and the circles."""
     rng = np.random.default_rng(seed)
     dt = 0.01
     t = np.arange(0.0, 330.0, dt)
@@ -63,8 +65,8 @@ def _synthetic(kp=1.1, tp=0.45, lag=0.2, comp_lag=0.6, comp_off=3.0, L=5.0, cur=
         c += (psis[k] - c) * dt / comp_lag
         comp[k] = c
     h = psis * D2R
-    ve = u * np.sin(h) + cur[0]
-    vn = u * np.cos(h) + cur[1]
+    ve = u * np.sin(h) + cur[0] + np.where(t < 200, cur_before[0], 0.0)
+    vn = u * np.cos(h) + cur[1] + np.where(t < 200, cur_before[1], 0.0)
     ig = np.arange(0, len(t), 20)  # 5 Hz GNSS
     tg = t[ig]
     read_t = np.floor(tg / 0.5) * 0.5  # the compass read at 2 Hz
@@ -90,7 +92,7 @@ def _synthetic(kp=1.1, tp=0.45, lag=0.2, comp_lag=0.6, comp_off=3.0, L=5.0, cur=
     segs.sort(key=lambda s: s[1])
     segs += [("step", float(t0), float(t0 + 14), {"rpm": 600.0 if t0 < 80 else 1000.0, "delta": 10.0})
              for t0 in range(10, 150, 14)]
-    segs += [("zigzag", 150.0, 200.0, {"deg": 10.0, "base": 0.0}),
+    segs += [("zigzag", 150.0, 200.0, {"deg": 10.0, "base": 0.0, "rpm": 1000.0}),
              ("circle", 200.0, 262.0, {"dir": 1.0, "turned": 720.0}),
              ("circle", 265.0, 327.0, {"dir": -1.0, "turned": 720.0})]
     return {"t0": 0.0, "t1": 329.0, "segments": segs, "a": a}
@@ -140,6 +142,54 @@ def test_dead_time_stands_for_an_unknown_latency():
     n = F.fit_nomoto(tr, u, 5.0, gnss_latency_s=-0.1)
     assert n["t_prime"] == pytest.approx(0.45, rel=0.08)
     assert n["dead_time_s"] == pytest.approx(0.1, abs=0.05)
+
+
+def _nomoto_with_current_uncertainty(tr):
+    cur = F.fit_current(tr)
+    n = F.fit_nomoto(tr, F.water_speed(tr, cur), 5.0, gnss_latency_s=0.0)
+    drift = F.current_drift(tr, cur)
+    F.add_current_uncertainty(n, cur, F.current_uncertainty(tr, cur, n, drift))
+    return n, drift
+
+
+def test_a_current_that_changed_before_the_circles_widens_t_primes_uncertainty():
+    """The current 0.06 m/s stronger along the zig-zag's course than in the circles after it (they
+    measure it): T' is off by more than 2 sigma of the fit's own (noise) uncertainty; the stated
+    uncertainty, with the current's walk measured from the sideways velocity at the zig-zag
+    propagated through the fit's sensitivity, covers it. Measured: T' +6.8 % (-3.7 % with a steady
+    current), 1 sigma 2.1 % (the fit's) and 9.3 % (stated)."""
+    n, drift = _nomoto_with_current_uncertainty(_synthetic(cur_before=(0.0, 0.06), lag=0.0))
+    err = abs(n["t_prime"] / 0.45 - 1)
+    assert err > 0.04
+    assert err > 2 * n["t_prime_sd_fit"] / n["t_prime"]
+    assert err <= 2 * n["t_prime_sd"] / n["t_prime"]
+    # the zig-zag's own check saw the change along its course (heading ~north), not across it
+    zz = [c for c in drift["checks"] if c["kind"] == "zigzag"][0]
+    assert zz["along_mps"] == pytest.approx(0.06, abs=0.01)
+    assert abs(zz["across_mps"]) < 0.01
+    assert drift["q_mps2_per_s"] > 0
+
+
+def test_a_steady_current_leaves_the_uncertainty_as_the_fit_states_it():
+    n, drift = _nomoto_with_current_uncertainty(_synthetic(lag=0.0))
+    assert drift["q_mps2_per_s"] < 1e-6
+    # what is added is the circles' own current error (measured: 1.5 % -> 1.7 %)
+    assert n["t_prime_sd"] / n["t_prime_sd_fit"] < 1.2
+    assert n["k_prime_sd"] / n["k_prime_sd_fit"] < 1.2
+
+
+def test_too_uncertain_from_the_current_names_the_manoeuvre_to_sail_again():
+    tr = _synthetic(cur_before=(0.1, 0.1), lag=0.0)
+    n, drift = _nomoto_with_current_uncertainty(tr)
+    fit = {"nomoto": n, "circle": {"radius_sd_m": 0.1}, "compass": {"lag_sd_s": 0.01}, "_trial": tr,
+           "current_drift": drift}
+    probs = F.uncertainty_problems(fit)
+    assert len(probs) == 1
+    msg = probs[0]
+    assert msg.startswith("T' too uncertain")
+    assert "from the current" in msg and "zig-zag at 1000 RPM" in msg
+    assert "sail the turning circles again right after that zig-zag" in msg
+    assert "0.10 m/s across" in msg  # what the zig-zag's sideways velocity showed
 
 
 def test_current_and_speed_map():
