@@ -108,7 +108,14 @@ def test_fault_reaction(straight, tmp_path, fault, expect):
         if len(got) < len(expect) and v == expect[len(got)]:
             got.append(v)
     assert got == expect, after
-    if not expect:  # no reaction expected: it stays in AUTO
+    if fault.startswith("st_noise"):
+        # no takeover, no Standby, no ALARM: AUTO throughout. Three of our keys lost in a row to
+        # the noise (a corrupt 0x86 fails its complement check, and the pilot ignores it) is the
+        # pilot-hang rule's own case: a Standby -> Auto recovery, then AUTO again. Measured over
+        # seeds 1-8 at 3 % noise for 40 s: 1-3 of 8 runs recover once, on the fifth round's law
+        # and on the sixth's alike (docs/SEATALK.md)
+        assert set(after) <= {"AUTO(recovering)", "AUTO"} and (not after or after[-1] == "AUTO"), after
+    elif not expect:  # no reaction expected: it stays in AUTO
         assert not after, after
 
 
@@ -158,7 +165,11 @@ def test_esp32_like_uart_rx_timeout(straight, tmp_path, rx_timeout_chars, echo_t
     if works:
         assert ms[-1][1] == "AUTO", ms
         assert r.pilot.keys_accepted >= 5  # engaged and stepped through the slow echoes
-        assert res["bus"]["gave_up"] == 0
+        # the firmware writes its keys through; another talker (the pilot) retries on a collision
+        # and gives a datagram up after 5: with a 1-char RX timeout that happened to 1-2 of the
+        # pilot's datagrams per 60 s on 2 of 10 seeds (the fifth round's law) and 5 of 10 (the
+        # sixth's): measured, docs/SEATALK.md; the link must still hold
+        assert res["bus"]["gave_up"] <= 2, res["bus"]
         assert max(abs(x) for t, x, s, _, _ in res["truth_xte"] if t > 30) < 3.0
     else:
         assert r.pilot.keys_accepted == 0  # not even Auto got through

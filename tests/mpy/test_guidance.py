@@ -540,9 +540,10 @@ def test_slow_leg_leaves_legs_at_speed_alone():
 def test_slow_leg_alos_learns_only_along_the_path():
     # on a 1 m/s leg the ALOS's weight is (1 - |chi| / 5 deg) / slow, chi the course made good
     # against the path: an approach at 6 deg learns nothing, 2.5 deg learns at half the rate of
-    # 0 deg; at 2 m/s (not a slow leg) the course does not matter
-    def integral_deg(u_leg, heading_deg):
-        law = LosLaw()  # the gate needs the course made good: heading + the measured crab (0 here)
+    # 0 deg; at 2 m/s (not a slow leg) the same gate without the slow factor (alos_chi_deg, sixth
+    # round); with alos_chi_deg 0 (the fifth round's law) the course does not matter there
+    def integral_deg(u_leg, heading_deg, **params):
+        law = LosLaw(**params)  # the gate needs the course made good: heading + the measured crab (0 here)
         prog = Progress(_line(u_leg))
         out = None
         for _ in range(20):
@@ -554,7 +555,12 @@ def test_slow_leg_alos_learns_only_along_the_path():
     t.eq(integral_deg(1.0, -6.0), 0.0)
     t.eq(integral_deg(1.0, 6.0), 0.0)
     t.near(integral_deg(1.0, -2.5), 0.5 * along, 0.02 * along)
-    t.near(integral_deg(2.0, -6.0), integral_deg(2.0, 0.0), 1e-9)
+    at_speed = integral_deg(2.0, 0.0)
+    t.true(at_speed > along, (at_speed, along))  # no slow factor at 2 m/s
+    t.eq(integral_deg(2.0, -6.0), 0.0)
+    t.near(integral_deg(2.0, 2.5), 0.5 * at_speed, 0.02 * at_speed)
+    t.near(integral_deg(2.0, -6.0, alos_chi_deg=0.0), integral_deg(2.0, 0.0, alos_chi_deg=0.0), 1e-9)
+    t.near(integral_deg(2.0, 0.0, alos_chi_deg=0.0), at_speed, 1e-9)
 
 
 def _soft_run(law, path, heading_deg=0.0):

@@ -158,7 +158,8 @@ class LosLaw:
     (off by default) from that share of the planned speed while the boat speeds up after an engage.
     On a slow leg (planned speed U < slow_ref_mps) the heading response slows as 1 / U: lookahead
     time, lead and ALOS integral time x slow_ref / max(U, slow_min_mps), and the ALOS learns only
-    while the course made good runs along the path (slow_chi_deg; "Fifth round").
+    while the course made good runs along the path (slow_chi_deg; "Fifth round"); on the other
+    legs too (alos_chi_deg; "Sixth round").
     Defaults: docs/NAVIGATION.md "Tuning".
     Corners are arcs of radius round_factor * turn_radius_m, shrunk where legs are too short
     (never below turn_radius_m / 2; sharper corners and reversals >= 170 deg are not rounded).
@@ -188,6 +189,7 @@ class LosLaw:
         "slow_min_mps": (1.0, "m/s", 0.1, 5.0, "slow leg: below this planned speed the schedule grows no more"),
         "slow_alos": (1.0, "1", 0.0, 1.0, "slow leg: the ALOS gain divided by slow_ref / U (1 = on)"),
         "slow_chi_deg": (5.0, "deg", 0.0, 90.0, "slow leg: the ALOS learns with weight 1 - |course made good - path| / this (0 = always)"),
+        "alos_chi_deg": (5.0, "deg", 0.0, 90.0, "legs at or above slow_ref_mps: the ALOS learns with weight 1 - |course made good - path| / this (0 = always)"),
         "alos_turn_hold": (1.0, "1", 0.0, 1.0, "ALOS held on arcs and in a corner's preview (1 = on; 0 = learns there too)"),
         "clip_deg": (45.0, "deg", 5.0, 120.0, "clip of the relative command (heading_cmd - heading)"),
         "max_turn_rate_dps": (10.0, "deg/s", 0.0, 60.0, "slow down so U / r stays below this (0 = off)"),
@@ -470,6 +472,10 @@ class LosLaw:
                 w = 1.0 / slow
             if self.slow_chi_deg > 0.0 and self.crab_ok:
                 w *= 1.0 - abs(chi_rad) / (self.slow_chi_deg * _RAD)
+        elif self.alos_chi_deg > 0.0 and self.crab_ok:
+            # at speed too: a sluggish pilot's deadband swing (periods 45-90 s) winds the ALOS
+            # up on each side ("Sixth round: the ALOS and the deadband")
+            w *= 1.0 - abs(chi_rad) / (self.alos_chi_deg * _RAD)
         if (self.alos_gain > 0.0 and w > 0.0 and not out.clipped and not self._intercept_clamped and not turning
                 and abs(y) < self.alos_zone_m and u >= self.crab_min_speed_mps and not prog.finished):
             self.beta_hat_rad += dt_s * self.alos_gain * w * la / math.sqrt(la * la + y * y) * y
