@@ -212,7 +212,7 @@ class LosLaw:
         "turn_margin": (1.2, "1", 0.0, 3.0, "arcs planned at least this x the radius the boat achieved (0 = off)"),
         "ram_lead": (1.0, "1", 0.0, 3.0, "preview lengthened by this x the ram's extra delay (0 = off)"),
         "ram_ref_dps": (10.0, "deg/s", 1.0, 60.0, "the ram rate preview_s was set for"),
-        "soft_knee_deg": (8.0, "deg", 1.0, 120.0, "after the approach, on a straight: the relative command beyond this grows at soft_gain"),
+        "soft_knee_deg": (8.0, "deg", 1.0, 120.0, "on a straight crossed twice since it began, at the law's own clip: the relative command beyond this grows at soft_gain"),
         "soft_gain": (0.5, "1", 0.0, 1.0, "... by this share of the law's (1 = off)"),
     }
 
