@@ -30,16 +30,25 @@ def _ack(app, frame, ack=True):
     app.gnss.on_msg(gnss.K_ACK_ACK if ack else gnss.K_ACK_NAK)
 
 
-def test_finished_session_is_released():
+def _app_in_session():
+    """An App whose receiver configuration session has sent its first frame (the GNSS task's
+    pump coroutine itself is not run); (wiring, app), or None without asyncio."""
     if not HAVE_ASYNCIO:
         print("skipped: no asyncio")
-        return
+        return None
     from trackpilot.app import App
 
     w = _Wiring()
     app = App(w, config.defaults(), ())
-    coro = app.task_gnss()  # sends the first frame; the pump coroutine itself is not run
-    coro.close()
+    app.task_gnss().close()
+    return w, app
+
+
+def test_finished_session_is_released():
+    made = _app_in_session()
+    if made is None:
+        return
+    w, app = made
     frames = list(app.gnss_cfg.frames)
     t.eq(w.gnss_uart.out, [frames[0]])
     for k in range(len(frames)):
@@ -60,14 +69,10 @@ def test_finished_session_is_released():
 
 
 def test_failed_session_is_reported_then_released():
-    if not HAVE_ASYNCIO:
-        print("skipped: no asyncio")
+    made = _app_in_session()
+    if made is None:
         return
-    from trackpilot.app import App
-
-    w = _Wiring()
-    app = App(w, config.defaults(), ())
-    app.task_gnss().close()
+    w, app = made
     frame = app.gnss_cfg.frames[0]
     for _ in range(app.gnss_cfg.retries + 1):
         w.t += 10
