@@ -108,18 +108,26 @@ def test_fault_reaction(straight, tmp_path, fault, expect):
         if len(got) < len(expect) and v == expect[len(got)]:
             got.append(v)
     assert got == expect, after
-    if fault.startswith("st_noise"):
-        # no takeover, no Standby, no ALARM: AUTO throughout. Three of our keys lost in a row to
-        # the noise (a corrupt 0x86 fails its complement check, and the pilot ignores it) is the
-        # pilot-hang rule's own case: a Standby -> Auto recovery, then AUTO again. Measured over
-        # seeds 1-8 at 3 % noise for 40 s: 1-3 of 8 runs recover once, on the fifth round's law
-        # and on the sixth's alike (docs/SEATALK.md)
-        assert set(after) <= {"AUTO(recovering)", "AUTO"} and (not after or after[-1] == "AUTO"), after
-    elif not expect:  # no reaction expected: it stays in AUTO
+    if not expect:  # no reaction expected: it stays in AUTO (st_noise: no takeover, no Standby,
+        # no ALARM, and no hang recovery: on a noisy bus hang rule (a) needs 6 lost keys, not 3;
+        # seed 3 recovered once before that, docs/SEATALK.md)
         assert not after, after
 
 
 AL_SEATALK = 1024  # firmware/trackpilot/core/modes.py
+
+
+def test_pilot_hang_keys_found_on_a_noisy_bus(straight, tmp_path):
+    # the pilot ignores keys from 40 s on a bus with 3 % of its characters corrupted since 30 s:
+    # hang rule (a) then needs 6 lost keys in a row (9.7-11.1 s after the hang on seeds 1-4, 5.2 s
+    # on a quiet bus)
+    r, res, summ = sail(straight, tmp_path / "hn", seed=2, scenario="current",
+                        faults=["pilot_hang_keys@40", "st_noise@30:50"], duration_s=80)
+    assert res["failure"] is None, res["failure"]
+    ms = [(t, v) for t, n, v in res["outputs"] if n == "mode" and t >= 30]
+    hang = [t for t, v in ms if v == "AUTO(recovering)"]
+    assert hang and 40 < hang[0] < 40 + 20, ms
+    assert ms[-1][1] == "AUTO", ms
 
 
 def test_pilot_hang_steer_detected_in_bounded_time(straight, tmp_path):

@@ -305,6 +305,45 @@ def test_hang_ignores_keys_recovered():
     T.eq(steps, ["attempt 1: standby sent", "attempt 1: standby confirmed", "attempt 1: auto sent"])
 
 
+def _keys_until_hang(noise_at_ms=None):
+    """A pilot that ignores keys; the app reports a bus error at noise_at_ms (relative, or None).
+    Returns (keys unconfirmed when the hang fired, its text)."""
+    r = _engaged_rig()
+    r.pilot.hang = "ignore_keys"
+    if noise_at_ms is not None:
+        T.true(r.drv.bus_noise(r.t + noise_at_ms))  # quiet before: worth a log line
+        T.true(not r.drv.bus_noise(r.t + noise_at_ms))  # already noisy
+    r.drv.steer_to(5, r.t)
+    r.run(20000, each=lambda rr: rr.drv.steer_to(5 - wrap180(rr.pilot.heading - 200), rr.t))
+    hang = [e for e in r.events if e[0] == sp.EV_HANG]
+    T.eq(len(hang), 1, hang)
+    return int(hang[0][2].split()[0]), hang[0][2]
+
+
+def test_a_noisy_bus_needs_twice_the_lost_keys_for_a_hang():
+    # a corrupt 0x86 fails its complement check and the pilot ignores it: on a noisy bus three
+    # keys lost in a row are no sign of a hung pilot (docs/SEATALK.md)
+    n, text = _keys_until_hang()
+    T.eq(n, 3)
+    T.true("noisy" not in text, text)
+    n, text = _keys_until_hang(noise_at_ms=0)
+    T.eq(n, 6)
+    T.true(text.endswith("(bus noisy)"), text)
+    # an error more than 30 s before the lost keys: quiet again
+    n, text = _keys_until_hang(noise_at_ms=-31000)
+    T.eq(n, 3)
+
+
+def test_bus_noise_window_and_tick_wrap():
+    d = sp.St2000(send=lambda dg: True)
+    T.true(not d.bus_noisy(0))
+    t0 = (1 << 30) - 10000  # 10 s before the tick counter wraps
+    d.bus_noise(t0)
+    T.true(d.bus_noisy((t0 + 29000) & ((1 << 30) - 1)))  # across the wrap: still the same 30 s
+    T.true(not d.bus_noisy((t0 + 30000) & ((1 << 30) - 1)))
+    T.eq(d.noise_ms, None)  # forgotten once quiet
+
+
 def test_hang_no_steer_detected_by_convergence():
     r = _engaged_rig(converge_window_ms=20000)
     r.pilot.hang = "no_steer"

@@ -117,6 +117,7 @@ class Autopilot:
         self._prev_heading = None
         from trackpilot.core.pilotwatch import PilotWatch
 
+        self._bus_errs = 0  # the framer's broken + the driver's implausible datagrams so far
         self.pilot_watch = PilotWatch()  # does the pilot's own loop hunt?
         self.pilot_db = None  # the pilot's deadband (core/pilotdb.py): made on the first los straight
         self._watch_status_ms = None
@@ -712,6 +713,13 @@ class Autopilot:
         self.now_ms = t
         for i in range(n):
             self.stlink.on_rx(buf[i], t)  # echo check; other bytes -> framer -> pilot
+        f = self.framer
+        errs = f.dropped_gap + self.pilot.bad_datagrams
+        if errs != self._bus_errs:
+            self._bus_errs = errs
+            if self.pilot.bus_noise(t):
+                self.event("SEATALK", "bus errors (%d gaps, %d implausible): noisy" % (
+                    f.dropped_gap, self.pilot.bad_datagrams))
         self.pilot.poll(t)
         self.wake_seatalk = True
         self.drain_events()

@@ -43,7 +43,8 @@ same mode (SeaTalk has no checksum: one flipped bit in the mode byte must not en
 the datagram is set aside and no keys are sent, so a person still wins within one status period.
 
 The hung pilot (ARCHITECTURE.md), while ENGAGED:
-  (a) `hang_unconfirmed_n` keystrokes in a row not confirmed;
+  (a) `hang_unconfirmed_n` keystrokes in a row not confirmed, twice that within _NOISE_MS of a
+      bus error the app reported (bus_noise: a corrupt key is lost, not ignored by a hung pilot);
   (b) no 0x84/0x95 status for `status_timeout_ms`;
   (c) in Auto, |locked course - heading| above `converge_err_deg` for a whole window of
       `converge_window_ms` in which the heading moved towards the locked course by less than
@@ -85,6 +86,7 @@ EV_STATUS_LOST = "STATUS_LOST"
 EV_STATUS_BACK = "STATUS_BACK"
 EV_OWN_AUTO_UNDONE = "OWN_AUTO_UNDONE"  # our Auto landed after a takeover: Standby sent back
 
+_NOISE_MS = const(30000)  # the bus counts as noisy this long after its last error
 _R_STANDBY_SEND = const(0)
 _R_STANDBY_WAIT = const(1)
 _R_AUTO_SEND = const(2)
@@ -168,6 +170,7 @@ class St2000:
         self.recover_attempts = 0
         self.takeovers = 0
         self.bad_datagrams = 0
+        self.noise_ms = None  # the last bus error the app reported (bus_noise); None: quiet
 
     @classmethod
     def from_config(cls, send, pilot_cfg):
@@ -512,8 +515,12 @@ class St2000:
             self._event(EV_KEY_UNCONFIRMED, t_ms, "key %s: course %s, expected %s" % (
                 st.KEY_NAMES[self._key], self.course_deg, self._key_expect))
             self._key = None
-            if self._unconf >= self.hang_unconfirmed_n:
-                self._hang(t_ms, "%d keystrokes in a row not followed" % self._unconf)
+            need = self.hang_unconfirmed_n
+            if self.bus_noisy(t_ms):
+                need *= 2  # a noisy bus loses keys (no checksum but the 0x86 complement)
+            if self._unconf >= need:
+                self._hang(t_ms, "%d keystrokes in a row not followed%s" % (
+                    self._unconf, " (bus noisy)" if need != self.hang_unconfirmed_n else ""))
                 return
         if self.target_course_deg is None:
             return
@@ -534,6 +541,23 @@ class St2000:
             self._key = key
             self._key_t = t_ms
             self._key_expect = wrap360(self.course_deg + st.KEY_DELTA_DEG[key])
+
+    def bus_noise(self, t_ms):
+        """The app saw a bus error (a corrupt or broken datagram). Returns True when the bus was
+        quiet before (worth a log line)."""
+        was = self.bus_noisy(t_ms)
+        self.noise_ms = t_ms
+        return not was
+
+    def bus_noisy(self, t_ms):
+        """A bus error within the last _NOISE_MS: hang rule (a) then needs twice the lost keys."""
+        if self.noise_ms is None:
+            return False
+        d = ticks_diff(t_ms, self.noise_ms)
+        if 0 <= d < _NOISE_MS:
+            return True
+        self.noise_ms = None  # quiet again (or so old that the tick difference wrapped)
+        return False
 
     def _converge_check(self, t_ms):
         """Hang check (c): True when it fired. The window measures how far the heading moved
