@@ -200,15 +200,19 @@ def report_text(fit, plots, args):
     L.append("## Tuned configuration (config_tuned.json)\n")
     L.append("```json\n%s\n```\n" % json.dumps(fit["config"], indent=2))
     L.append("Margins: the closed heading response at %d RPM (the slowest) reaches 63 %% of a course "
-             "step %.2f +- %.2f s after the key (tau). The xte loop is designed on tau + 2 sigma = "
-             "%.2f s: lookahead time T_la = los_lookahead_gain x los_heading_tc_s = %.2f s, lead "
-             "los_xte_lead_s = T_d = %.2f s (heading-feedback gain T_d / T_la = %.2f, limit %.1f). "
-             "Damping ratio zeta = 0.5 (1 + T_d / T_la) sqrt(T_la / tau): %.2f at tau, %.2f at tau + "
-             "2 sigma (goal >= %.1f); zeta stays >= 0.5 up to tau = %.1f s. Phase margin of the loop "
-             "without the lead, with the measured delay: %.0f deg." % (
-                 mg["at_rpm"], mg["tau_s"], mg["tau_sd_s"], mg["tau_design_s"], mg["t_la_s"], mg["t_d_s"],
-                 mg["lead_gain"], mg["lead_gain_max"], mg["zeta_at_tau"], mg["zeta_at_design"], mg["zeta_min"],
-                 mg["tau_for_zeta_0p5_s"], mg["phase_margin_no_lead_deg"]))
+             "step %.2f +- %.2f s after the key (tau). The lookahead and the lead stay the law's "
+             "defaults (T_la = %.1f s, T_d = %.1f s from 2 m/s up, longer on slower legs; the swing "
+             "watch adapts them on line): damping "
+             "ratio of the xte loop zeta = 0.5 (1 + T_d / T_la) sqrt(T_la / tau) = %.2f at tau, %.2f "
+             "at tau + 2 sigma = %.2f s; zeta stays >= 0.5 up to tau = %.1f s (the zeta rule would "
+             "ask T_la = %.1f s; measured worse than the defaults, not used). The ALOS gain "
+             "los_alos_gain = %.5f: the default x min(1, (%.1f s / tau)^2) = x%.2f (its integrator "
+             "and a slow heading response swing together, docs/COMMISSIONING.md). Phase margin of "
+             "the loop without the lead, with the measured delay: %.0f deg." % (
+                 mg["at_rpm"], mg["tau_s"], mg["tau_sd_s"], mg["t_la_s"], mg["t_d_s"], mg["zeta_at_tau"],
+                 mg["zeta_at_design"], mg["tau_design_s"], mg["tau_for_zeta_0p5_s"], mg["t_la_zeta_rule_s"],
+                 fit["config"]["guidance"]["los_alos_gain"], mg["tau_ref_s"], mg["alos_scale"],
+                 mg["phase_margin_no_lead_deg"]))
     L.append("The turning radius in the configuration is the measured one plus 2 sigma.\n")
     L.append("## Sweep around the fitted point and recommendation\n")
     if "sweep" in fit:

@@ -1074,25 +1074,42 @@ def xte_damping(t_la_s, t_d_s, tau_s):
     return 0.5 * (1.0 + t_d_s / t_la_s) * math.sqrt(t_la_s / tau_s)
 
 
+# The law's defaults the derivation starts from (firmware LosLaw.PARAMS; tests/host/test_tune_fit.py
+# checks they agree): lookahead time = gain x heading_tc_s, the lead, the ALOS gain
+LAW_T_LA_S = 2.0 * 3.0
+LAW_T_D_S = 3.0
+LAW_ALOS_GAIN = 0.004
+# the closed heading response (key to 63 %) at the lowest trial RPM of the simulator's nominal boat,
+# for which the defaults were tuned: 4.86 / 5.15 / 5.26 s on seeds 1-3 (docs/COMMISSIONING.md);
+# a response at or below this keeps the default ALOS gain
+TAU_REF_S = 5.5
+
+
 def guidance_keys(tau_s, tau_sd_s):
     """The closed heading response's time constant tau (key to 63 %, the slowest fitted speed)
-    with its 1-sigma uncertainty -> the `los` keys. The loop is designed on tau + 2 sigma: the
-    shortest lookahead time T_la with zeta >= ZETA_MIN there at a lead T_d = LEAD_GAIN T_la.
-    Returns (guidance keys, margins). The one place that maps the fit to the law's settings."""
+    with its 1-sigma uncertainty -> the `los` keys. Returns (guidance keys, margins). The one
+    place that maps the fit to the law's settings.
+
+    The lookahead and the lead stay the law's defaults (the swing watch adapts them on line): a
+    lookahead derived from tau alone (the zeta rule of the margins) sailed worse than the defaults
+    on the accepted hidden boats (docs/COMMISSIONING.md). What the fit does set is the ALOS gain:
+    with y' = -U y / L - U beta and beta' = gamma y the integrator closes a slow loop (a period of
+    about 70 s at the defaults) whose damping a sluggish heading response erodes into the 45-90 s
+    swings of docs/NAVIGATION.md "Seventh round", so gamma = default x min(1, (TAU_REF_S / tau)^2)."""
     sd = tau_sd_s if (tau_sd_s is not None and math.isfinite(tau_sd_s)) else 0.3 * tau_s
     tau_design = tau_s + 2.0 * sd
-    t_la = tau_design * (ZETA_MIN / (0.5 * (1.0 + LEAD_GAIN))) ** 2
-    t_d = LEAD_GAIN * t_la
-    heading_tc = round(min(10.0, max(0.2, tau_s)), 2)
-    gain = round(min(10.0, max(0.5, t_la / heading_tc)), 2)
-    t_la = gain * heading_tc  # as the firmware will compute it
-    keys = {"los_heading_tc_s": heading_tc, "los_lookahead_gain": gain, "los_xte_lead_s": round(t_d, 2)}
+    alos_scale = min(1.0, (TAU_REF_S / tau_s) ** 2)
+    keys = {"los_alos_gain": round(LAW_ALOS_GAIN * alos_scale, 5)}
+    t_la, t_d = LAW_T_LA_S, LAW_T_D_S
     margins = {"tau_s": tau_s, "tau_sd_s": sd, "tau_design_s": tau_design, "t_la_s": t_la,
-               "t_d_s": round(t_d, 2), "lead_gain": round(t_d, 2) / t_la,
-               "zeta_at_tau": xte_damping(t_la, round(t_d, 2), tau_s),
-               "zeta_at_design": xte_damping(t_la, round(t_d, 2), tau_design),
+               "t_d_s": t_d, "lead_gain": t_d / t_la,
+               "zeta_at_tau": xte_damping(t_la, t_d, tau_s),
+               "zeta_at_design": xte_damping(t_la, t_d, tau_design),
                # the slowest tau that still keeps zeta >= 0.5 (the loop's "still usable")
-               "tau_for_zeta_0p5_s": t_la * (0.5 * (1.0 + round(t_d, 2) / t_la) / 0.5) ** 2}
+               "tau_for_zeta_0p5_s": t_la * (0.5 * (1.0 + t_d / t_la) / 0.5) ** 2,
+               # the lookahead time the zeta rule would ask (not used: measured worse)
+               "t_la_zeta_rule_s": tau_design * (ZETA_MIN / (0.5 * (1.0 + LEAD_GAIN))) ** 2,
+               "alos_scale": alos_scale, "tau_ref_s": TAU_REF_S}
     return keys, margins
 
 
@@ -1105,8 +1122,9 @@ def derive_guidance(nomoto, circle, steps, speed_map):
     s = steps["by_rpm"][slow]
     tau = s["t63_s"] if math.isfinite(s["t63_s"]) else 4.0
     keys, notes = guidance_keys(max(0.2, tau), s.get("t63_s_sd"))
-    pm, wc = phase_margin_deg(keys["los_lookahead_gain"], max(0.2, s["tc_s"] if math.isfinite(s["tc_s"]) else tau),
-                              max(0.0, s["delay_s"]) if math.isfinite(s["delay_s"]) else 0.5)
+    tc = max(0.2, s["tc_s"] if math.isfinite(s["tc_s"]) else tau)
+    delay = max(0.0, s["delay_s"]) if math.isfinite(s["delay_s"]) else 0.5
+    pm, wc = phase_margin_deg(LAW_T_LA_S / (delay + tc), tc, delay)  # the defaults' lookahead time
     R = circle["radius_m"] + 2.0 * (circle["radius_sd_m"] if math.isfinite(circle["radius_sd_m"]) else 0.5)
     R = round(min(100.0, max(2.0, R)), 1)
     guidance = {"law": "los"}

@@ -1,10 +1,12 @@
 """tune's fits on synthetic responses with known answers (no firmware, no simulator)."""
 import math
+import sys
 
 import numpy as np
 import pytest
 
 from trackpilot_tools import tune_fit as F
+from trackpilot_tools.mpy import ROOT
 
 D2R = math.pi / 180.0
 
@@ -300,24 +302,35 @@ def test_phase_margin_and_derived_lookahead():
     assert pm_d < pm
 
 
-def test_guidance_keys_meet_the_damping_goal_with_margin():
-    keys, m = F.guidance_keys(4.0, 0.5)
-    t_la = keys["los_lookahead_gain"] * keys["los_heading_tc_s"]
-    t_d = keys["los_xte_lead_s"]
-    assert keys["los_heading_tc_s"] == pytest.approx(4.0)
-    assert t_d / t_la <= F.LEAD_GAIN + 0.01  # the lead's heading-feedback gain
-    # zeta >= 0.7 at tau + 2 sigma (the design point), more at the measured tau
-    assert F.xte_damping(t_la, t_d, 5.0) >= 0.7 - 0.01
-    assert m["zeta_at_design"] == pytest.approx(F.xte_damping(t_la, t_d, 5.0))
-    assert m["zeta_at_tau"] > m["zeta_at_design"]
+def test_guidance_keys_slow_the_alos_for_a_slow_heading_response():
+    # at or below the nominal boat's measured response: the defaults, nothing written but the gain
+    keys, m = F.guidance_keys(5.0, 0.5)
+    assert keys == {"los_alos_gain": F.LAW_ALOS_GAIN}
+    assert m["alos_scale"] == 1.0
+    # slower: gamma = default x (5.5 / tau)^2 (10 s: x0.3025)
+    k10, m10 = F.guidance_keys(10.0, 1.0)
+    assert k10["los_alos_gain"] == pytest.approx(0.004 * 0.3025, abs=1e-5)
+    assert F.guidance_keys(7.0, 1.0)[0]["los_alos_gain"] > k10["los_alos_gain"]  # monotonic
+    # the lookahead and the lead stay the law's: the margins are the defaults' at the measured tau
+    assert m10["t_la_s"] == 6.0 and m10["t_d_s"] == 3.0
+    assert m10["zeta_at_tau"] == pytest.approx(F.xte_damping(6.0, 3.0, 10.0))
+    assert m10["zeta_at_design"] < m10["zeta_at_tau"]  # tau + 2 sigma is slower
     # the linear analysis of docs/NAVIGATION.md: zeta = 0.5 (1 + T_d / T_la) sqrt(T_la / tau)
     assert F.xte_damping(6.0, 3.0, 6.0) == pytest.approx(0.75)
-    # a slower or less certain response gets a longer lookahead time
-    k2, _ = F.guidance_keys(4.0, 1.5)
-    assert k2["los_lookahead_gain"] * k2["los_heading_tc_s"] > t_la
+    # what the zeta rule would have asked is reported, longer for a less certain response
+    assert F.guidance_keys(4.0, 1.5)[1]["t_la_zeta_rule_s"] > F.guidance_keys(4.0, 0.5)[1]["t_la_zeta_rule_s"]
     # an unknown uncertainty is not taken as none
-    k3, m3 = F.guidance_keys(4.0, float("nan"))
-    assert m3["tau_design_s"] > 4.0
+    assert F.guidance_keys(4.0, float("nan"))[1]["tau_design_s"] > 4.0
+
+
+def test_the_derivation_starts_from_the_laws_defaults():
+    sys.path.insert(0, str(ROOT / "firmware"))
+    from trackpilot.nav.guidance import LosLaw
+
+    d = {k: v[0] for k, v in LosLaw.PARAMS.items()}
+    assert F.LAW_T_LA_S == d["lookahead_gain"] * d["heading_tc_s"]
+    assert F.LAW_T_D_S == d["xte_lead_s"]
+    assert F.LAW_ALOS_GAIN == d["alos_gain"]
 
 
 def test_sweep_recommends_tuned_only_when_no_worse():
