@@ -541,8 +541,10 @@ def test_slow_leg_alos_learns_only_along_the_path():
     # on a 1 m/s leg the ALOS's weight is (1 - |chi| / 5 deg) / slow, chi the course made good
     # against the path: an approach at 6 deg learns nothing, 2.5 deg learns at half the rate of
     # 0 deg; at 2 m/s (not a slow leg) the same gate without the slow factor (alos_chi_deg, sixth
-    # round); with alos_chi_deg 0 (the fifth round's law) the course does not matter there
+    # round); with alos_chi_deg 0 (the fifth round's law) the course does not matter there. The
+    # ALOS on the plain xte (alos_lead_s 0, the sixth round's): the gate alone
     def integral_deg(u_leg, heading_deg, **params):
+        params.setdefault("alos_lead_s", 0.0)
         law = LosLaw(**params)  # the gate needs the course made good: heading + the measured crab (0 here)
         prog = Progress(_line(u_leg))
         out = None
@@ -561,6 +563,30 @@ def test_slow_leg_alos_learns_only_along_the_path():
     t.near(integral_deg(2.0, 2.5), 0.5 * at_speed, 0.02 * at_speed)
     t.near(integral_deg(2.0, -6.0, alos_chi_deg=0.0), integral_deg(2.0, 0.0, alos_chi_deg=0.0), 1e-9)
     t.near(integral_deg(2.0, 0.0, alos_chi_deg=0.0), at_speed, 1e-9)
+
+
+def test_alos_learns_on_the_xte_predicted_ahead():
+    # seventh round: the ALOS integrates y + alos_lead_s x U x sin(chi), chi the course made good
+    # against the path; the gate's weight as before (2.5 deg: half)
+    def integral_deg(heading_deg, lead_s):
+        law = LosLaw(alos_lead_s=lead_s)
+        prog = Progress(_line(2.0))
+        out = None
+        for _ in range(20):
+            out = _step(law, prog, make_fix(1.0, 50.0, heading_deg, sog_mps=2.0))
+        return out.integral_deg, out.path_xte_m
+
+    plain, y = integral_deg(2.5, 0.0)
+    t.true(plain > 0.1, plain)
+    for lead_s in (6.0, 15.0):
+        led, _ = integral_deg(2.5, lead_s)
+        # 1 m to starboard of the path and heading 2.5 deg further to starboard: the predicted xte
+        # grows (1 + 15 x 2 x sin 2.5 deg = 2.31 m at 15 s), and the integral with it
+        ratio = (y + lead_s * 2.0 * math.sin(math.radians(2.5))) / y
+        t.true(ratio > 1.2, ratio)
+        t.near(led / plain, ratio, 0.01 * abs(ratio))
+    # heading along the path: the prediction is the xte itself
+    t.near(integral_deg(0.0, 15.0)[0], integral_deg(0.0, 0.0)[0], 1e-9)
 
 
 def _soft_run(law, path, heading_deg=0.0):

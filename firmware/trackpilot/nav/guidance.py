@@ -150,9 +150,10 @@ class LosLaw:
     xte_lead_s ahead, the damping that keeps the loop stable over unknown pilots (docs/NAVIGATION.md
     "Robust over boats we have not modelled")
     heading_cmd = course_d - crab (measured COG - heading, low-pass) - beta_hat (ALOS)
-    beta_hat' = gamma * lookahead / sqrt(lookahead^2 + y^2) * y, frozen while the command is
-    clipped, while far off the path or slow (anti-windup), on arcs and in a corner's preview
-    (alos_turn_hold), and clamped.
+    beta_hat' = gamma * lookahead / sqrt(lookahead^2 + y^2) * y_a,
+    y_a = y + alos_lead_s * U * sin(course made good - path tangent) (the xte predicted alos_lead_s
+    ahead; "Seventh round"), frozen while the command is clipped, while far off the path or slow
+    (anti-windup), on arcs and in a corner's preview (alos_turn_hold), and clamped.
     lookahead = clamp(lookahead_gain * U * heading_tc_s, min, max) = 6 s x U by default, from
     the closed heading response's spread with a stability margin (docs/NAVIGATION.md); with accel_la
     (off by default) from that share of the planned speed while the boat speeds up after an engage.
@@ -190,6 +191,7 @@ class LosLaw:
         "slow_alos": (1.0, "1", 0.0, 1.0, "slow leg: the ALOS gain divided by slow_ref / U (1 = on)"),
         "slow_chi_deg": (5.0, "deg", 0.0, 90.0, "slow leg: the ALOS learns with weight 1 - |course made good - path| / this (0 = always)"),
         "alos_chi_deg": (5.0, "deg", 0.0, 90.0, "legs at or above slow_ref_mps: the ALOS learns with weight 1 - |course made good - path| / this (0 = always)"),
+        "alos_lead_s": (15.0, "s", 0.0, 60.0, "the ALOS learns on the xte predicted this far ahead from the course made good: damps its slow loop (0 = off)"),
         "alos_turn_hold": (1.0, "1", 0.0, 1.0, "ALOS held on arcs and in a corner's preview (1 = on; 0 = learns there too)"),
         "clip_deg": (45.0, "deg", 5.0, 120.0, "clip of the relative command (heading_cmd - heading)"),
         "max_turn_rate_dps": (10.0, "deg/s", 0.0, 60.0, "slow down so U / r stays below this (0 = off)"),
@@ -478,7 +480,11 @@ class LosLaw:
             w *= 1.0 - abs(chi_rad) / (self.alos_chi_deg * _RAD)
         if (self.alos_gain > 0.0 and w > 0.0 and not out.clipped and not self._intercept_clamped and not turning
                 and abs(y) < self.alos_zone_m and u >= self.crab_min_speed_mps and not prog.finished):
-            self.beta_hat_rad += dt_s * self.alos_gain * w * la / math.sqrt(la * la + y * y) * y
+            # on the xte predicted alos_lead_s ahead ("Seventh round"): its integral is the xte's
+            # integral plus alos_lead_s x the xte itself, a phase lead in its ~70 s loop that a
+            # slow heading response (deadband, low gain) otherwise turns into a limit cycle
+            y_a = y + self.alos_lead_s * u * math.sin(chi_rad) if self.alos_lead_s > 0.0 else y
+            self.beta_hat_rad += dt_s * self.alos_gain * w * la / math.sqrt(la * la + y * y) * y_a
             lim = self.alos_max_deg * _RAD
             self.beta_hat_rad = _clip(self.beta_hat_rad, -lim, lim)
         crab = self.crab_f_deg * self.crab_use if self.crab_ok else 0.0
