@@ -205,6 +205,7 @@ class LosLaw:
         "adapt_overshoot": (0.7, "1", 0.0, 5.0, "swing watch: the approach's overshoot / its start offset that acts ... (0 = off)"),
         "adapt_stop_s": (3.0, "s", 0.0, 60.0, "... with the rudder at its stop this long since the crossing"),
         "adapt_stop_deg": (27.0, "deg", 1.0, 90.0, "the pilot's reported rudder at or beyond this is at its stop"),
+        "adapt_clip_back": (1.0, "1", 0.0, 1.0, "a straight's clip cut by the watches still lets the boat turn parallel to the path while it moves away (1 = on)"),
         "adapt_overshoot_clip_deg": (12.0, "deg", 5.0, 120.0, "the straight's clip set then (and lookahead x2)"),
         "adapt_split": (3.5, "1", 1.0, 20.0, "swing watch: period / (lookahead / U) below which the lead is cut"),
         "tau_sched": (0.0, "1", 0.0, 1.0, "lookahead and lead from the measured heading response (1 = on; measured no gain)"),
@@ -501,6 +502,13 @@ class LosLaw:
         cmd = course - crab - self.beta_hat_rad / _RAD
         rel = wrap180(cmd - fix.heading_deg)
         lim = self.clip_deg * self.clip_scale if arc_r == 0.0 else self.clip_deg  # turns: as set
+        if self.adapt_clip_back > 0.0 and arc_r == 0.0 and self.clip_scale < 1.0 and y * chi_rad > 0.0:
+            # moving away from the path under a clip the watches cut: the pilot may still be asked
+            # for the course parallel to the path, so a slow turn cannot carry the boat 20 m off
+            # ("Seventh round: the clip lets the boat turn back")
+            par = wrap180(prog.leg_bearing_deg + tan_rad / _RAD - crab - fix.heading_deg)
+            if par * rel > 0.0 and abs(par) > lim:
+                lim = abs(par) if abs(par) < self.clip_deg else self.clip_deg
         out.clipped = rel > lim or rel < -lim
         rel = _clip(rel, -lim, lim)
         # the soft clip (docs/NAVIGATION.md "Sixth round"): on a straight the boat has crossed
