@@ -211,3 +211,15 @@ def test_alos_lead_settles_a_sluggish_pilot_with_a_wide_deadband():
     settles at 0.43 m. With alos_lead_s = 0 (the law before) it fails: the test can fail."""
     job = {"case": "straight_3.0", "law": "los", "boat": 392, "timeout": 300.0}
     _settles_where_off_swings(job, {"guidance": {"los_alos_lead_s": 0.0}}, 0.6, 2.0)
+
+
+def test_a_cut_clip_lets_a_slow_turning_boat_back():
+    """Issue 10, seventh round (docs/NAVIGATION.md "Seventh round: the clip lets the boat turn
+    back"): boat 484 at 2 m/s (ST2000+ gain 1.01 deg/deg on a 5.2 deg/s ram). Its approach
+    overshoots with the ram at its stop, the fourth round's rule cuts the clip to 12 deg while the
+    boat heads 40-50 deg off the path, and with 12 deg of error this pilot turns back at about
+    2 deg/s: 31 m off, never settled (18.2 m RMS). With the cut clip opened to the course parallel
+    to the path while the boat moves away (the default) it settles at 0.21 m. With
+    adapt_clip_back = 0 (the law before) it fails: the test can fail."""
+    job = {"case": "straight_2.0", "law": "los", "boat": 484, "timeout": 300.0}
+    _settles_where_off_swings(job, {"guidance": {"los_adapt_clip_back": 0.0}}, 0.5, 5.0)

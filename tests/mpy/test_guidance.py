@@ -589,6 +589,26 @@ def test_alos_learns_on_the_xte_predicted_ahead():
     t.near(integral_deg(0.0, 15.0)[0], integral_deg(0.0, 0.0)[0], 1e-9)
 
 
+def test_a_cut_clip_lets_the_boat_turn_back_while_it_moves_away():
+    # seventh round: the watches cut the straight's clip to 12 deg; 3 m to starboard of a path north
+    # and heading 40 deg (away from it), the pilot may still be asked for the course parallel to
+    # the path (-40 deg), not 12 deg a step; heading back towards the path the cut clip holds
+    def rel_deg(east_m, heading_deg, back):
+        law = LosLaw(adapt_clip_back=back)
+        law.clip_scale = 12.0 / 45.0  # as _on_overshoot leaves it
+        prog = Progress(_line(2.0))
+        out = None
+        for _ in range(5):
+            out = _step(law, prog, make_fix(east_m, 50.0, heading_deg, sog_mps=2.0))
+        return out.rel_cmd_deg
+
+    t.near(rel_deg(3.0, 40.0, 0.0), -12.0, 1e-6)  # the cut clip (the law before)
+    t.near(rel_deg(3.0, 40.0, 1.0), -40.0, 1e-3)  # parallel to the path
+    t.near(rel_deg(3.0, -40.0, 1.0), 12.0, 1e-6)  # heading back (too steeply): the cut clip, no more
+    t.near(rel_deg(-3.0, -40.0, 1.0), 40.0, 1e-3)  # the same to port
+    t.near(rel_deg(3.0, 70.0, 1.0), -45.0, 1e-6)  # never beyond the law's own clip
+
+
 def _soft_run(law, path, heading_deg=0.0):
     """Sail the east offsets in path (one per 0.2 s, northwards at 2 m/s along _corner()'s first
     leg); the relative commands."""
