@@ -115,11 +115,12 @@ def test_approach_overshoot_with_the_ram_at_its_stop():
     offset) with the pilot's reported rudder at its stop for 3 s sets lookahead x2 and a 12 deg
     clip at once: it settles (0.47 m measured). With that off (guidance.los_adapt_overshoot = 0, the
     law before) the same boat oscillates: the test can fail. Measured on the sixth round's law (the
-    ALOS on the plain xte): with the seventh round's ALOS lead this run does not settle within the
-    straight (1.61 m RMS after the first 30 s, not oscillating; with the overshoot rule off 4.45 m,
-    oscillating): a known loss of that round (docs/NAVIGATION.md "Seventh round")."""
+    ALOS on the plain xte, no clip back): with the seventh round's ALOS lead this run does not
+    settle within the straight (1.61 m RMS after the first 30 s, not oscillating; with the
+    overshoot rule off 4.45 m, oscillating), with its clip-back rule as well 1.92 m, oscillating:
+    a known loss of that round (docs/NAVIGATION.md "Seventh round")."""
     job = {"case": "straight_2.0", "law": "los", "boat": 52, "timeout": 300.0}
-    sixth = {"los_alos_lead_s": 0.0}
+    sixth = {"los_alos_lead_s": 0.0, "los_adapt_clip_back": 0.0}
     _settles_where_off_swings(job, {"guidance": dict(sixth, los_adapt_overshoot=0.0)}, 0.8, 3.0,
                               on_fw={"guidance": sixth})
 
