@@ -1064,8 +1064,10 @@ def phase_margin_deg(gain, tc, delay):
     return 90.0 - math.degrees(math.atan(tc * w)) - math.degrees(delay * w), w
 
 
-ZETA_MIN = 0.7  # damping ratio of the xte loop at the slowest fitted speed's response
-LEAD_GAIN = 0.5  # T_d / T_la: the lead's heading-feedback gain (docs/NAVIGATION.md: <= 0.5)
+# the zeta rule tune used until 2026-11-25 (only reported now: its lookahead sailed worse): the
+# damping ratio of the xte loop at tau + 2 sigma, with the lead's heading-feedback gain T_d / T_la
+ZETA_MIN = 0.7
+LEAD_GAIN = 0.5
 
 
 def xte_damping(t_la_s, t_d_s, tau_s):
@@ -1138,7 +1140,7 @@ def derive_guidance(nomoto, circle, steps, speed_map):
     # los_speed_tc_s stays as configured: the RPM change comes with the turn back, whose speed
     # loss in the turn the simple fit would take for surge lag (reported, not used)
     notes.update({"phase_margin_no_lead_deg": pm, "crossover_rad_s": wc, "at_rpm": slow,
-                  "heading_delay_s": s["delay_s"], "zeta_min": ZETA_MIN, "lead_gain_max": LEAD_GAIN})
+                  "heading_delay_s": s["delay_s"]})
     return cfg, notes
 
 

@@ -507,8 +507,8 @@ class LosLaw:
             # for the course parallel to the path, so a slow turn cannot carry the boat 20 m off
             # ("Seventh round: the clip lets the boat turn back")
             par = wrap180(prog.leg_bearing_deg + tan_rad / _RAD - crab - fix.heading_deg)
-            if par * rel > 0.0 and abs(par) > lim:
-                lim = abs(par) if abs(par) < self.clip_deg else self.clip_deg
+            if par * rel > 0.0:
+                lim = max(lim, min(abs(par), self.clip_deg))
         out.clipped = rel > lim or rel < -lim
         rel = _clip(rel, -lim, lim)
         # the soft clip (docs/NAVIGATION.md "Sixth round"): on a straight the boat has crossed
