@@ -1083,7 +1083,8 @@ LAW_T_D_S = 3.0
 LAW_ALOS_GAIN = 0.004
 # the closed heading response (key to 63 %) at the lowest trial RPM of the simulator's nominal boat,
 # for which the defaults were tuned: 4.86 / 5.15 / 5.26 s on seeds 1-3 (docs/COMMISSIONING.md);
-# a response at or below this keeps the default ALOS gain
+# a response at or below this keeps the default ALOS gain. Measured with the default trial's RPMs:
+# a trial sailed at other RPMs measures another tau and wants its own reference
 TAU_REF_S = 5.5
 
 
