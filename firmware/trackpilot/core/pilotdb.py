@@ -11,10 +11,11 @@ of the wanted one for a long time and the cross-track error with it.
   0.5 deg/s) one sample of |course - heading| in the pilot's frame, tracked by a quantile step (up
   0.04, down 0.01 deg: the 80th percentile), from the configured pilot.deadband_deg.
 - Signature: the compensation starts only once the heading error (wanted - heading, low-passed over
-  2 s) has stayed beyond 1 deg (and within 6 deg: not a turn) on one side for 22 s: a pilot that
-  lets the heading sit off. On the nominal pilot (1 deg) the longest such stretch measured was 19 s
-  (docs/NAVIGATION.md): there the locked course stays the wanted heading, bit for bit. Seen once,
-  it belongs to the pilot.
+  2 s) has stayed beyond 1 deg (and within 6 deg: not a turn) on one side for 5 s: a pilot that
+  lets the heading sit off, not one whose own loop hunts (its error changes side or passes 6 deg
+  sooner; without the wait a relay on top of such a hunt made it swing: docs/NAVIGATION.md,
+  "Eighth round"). Until then the locked course is the wanted heading, bit for bit. Seen once, it
+  belongs to the pilot.
 - Compensation: course = wanted + side * frac * estimate, side +1 / -1 once the low-passed error is
   beyond 1 deg to that side (kept inside it), 0 while the boat swings or turns (error beyond the
   estimate + 3 deg, or turning faster than 2 deg/s: a relay on the heading error would feed the
@@ -25,7 +26,7 @@ A few attributes and no buffers; a string only for a note.
 from trackpilot.compat import const, ticks_diff, wrap180
 
 _REST_MS = const(2000)  # the course unchanged this long ...
-_SIGN_MS = const(22000)  # the deadband's signature: the heading off on one side this long
+_SIGN_MS = const(5000)  # the deadband's signature: the heading off on one side this long (not a hunt)
 # The float thresholds are literals in the code (a module-level float costs heap on the board):
 # at rest: the heading turning slower than 0.5 deg/s; the quantile step up 0.04 / down 0.01 deg
 # (the 80th percentile), bounded to 4 deg; a note each 0.25 deg the estimate moves; the error
