@@ -70,14 +70,14 @@ def _deadband_run(boat, case, fw=None, shift=1):
 
 def test_deadband_compensation_on_a_pilot_with_a_large_deadband():
     """Issue 10, straights (docs/NAVIGATION.md "The pilot's deadband"): boat 1 at 2 m/s, an ST2000+
-    deadband of 2.1 deg. Its heading sits off the wanted one on one side for more than 22 s (the
-    deadband's signature) and the compensation starts. Without it (pilot.deadband_comp_frac = 0,
-    as on main) the settled RMS is 0.29 m, with it (the default) 0.21 m: the test can fail. On the
-    same boat with a plain dead zone (no shift) the compensation must not make the run worse (it
-    would overshoot a pilot that acts on the whole error)."""
+    deadband of 2.1 deg. Its heading sits off the wanted one on one side for longer than the
+    deadband's signature (5 s; 22 s before the eighth round) and the compensation starts. Without
+    it (pilot.deadband_comp_frac = 0) the settled RMS is 0.29 m, with it (the default) 0.19 m (0.21 m
+    with the 22 s signature): the test can fail. On the same boat with a plain dead zone (no shift)
+    the compensation must not make the run worse (it would overshoot a pilot that acts on the whole
+    error): 0.17 m without, 0.14 m with it."""
     # on the fifth round's law: the sixth round's ALOS gate alone also settles this boat (0.298 m
-    # with and without the compensation); with the seventh round's ALOS lead too the heading no
-    # longer sits off for 22 s: 0.209 m, the compensation never starts
+    # with and without the compensation); the default law of the eighth round sails it at 0.18 m
     fifth = {"guidance": {"los_alos_chi_deg": 0.0, "los_alos_lead_s": 0.0}}
     off_fw = dict(fifth, pilot={"deadband_comp_frac": 0.0})
     on = _deadband_run(1, "straight_2.0", fifth)
@@ -92,7 +92,7 @@ def test_deadband_compensation_on_a_pilot_with_a_large_deadband():
 
 
 def test_deadband_compensation_waits_out_a_hunting_pilot():
-    """Issue 10, eighth round (docs/NAVIGATION.md "Eighth round: the deadband's signature in 5 s"):
+    """Issue 10, eighth round (docs/NAVIGATION.md "Eighth round", the deadband's signature in 5 s):
     boat 212 at 3 m/s (ST2000+ gain 1.40 deg/deg on a 5.2 deg/s ram) and boat 85 at 2 m/s (gain
     2.34, damping x0.78) hunt by themselves (the heading +-10-15 deg, 8-10 s). Their heading error
     changes side or passes 6 deg before it has stayed beyond 1 deg on one side for 5 s, so the

@@ -83,7 +83,7 @@ def test_quiet_until_the_signature():
         comp = DeadbandComp(prior_deg=1.0)
         asked = [0, 0]
         rms, _ = _sail(comp, db, 600.0, period_s=8.0, drift_dps=2.5, asked=asked)
-        t.true(rms > 0.7, rms)  # the heading does leave the wanted one by more than 1 deg
+        t.true(rms > 1.5, rms)  # the heading does leave the wanted one by more than 1 deg (RMS 2.0-2.2)
         t.true(not comp.db_seen, db)
         t.eq(comp.db_side, 0)
         t.eq(asked, [3000, 0])
