@@ -1123,11 +1123,12 @@ def derive_guidance(nomoto, circle, steps, speed_map):
     rpms = sorted(steps["by_rpm"])
     slow = rpms[0]
     s = steps["by_rpm"][slow]
-    tau = s["t63_s"] if math.isfinite(s["t63_s"]) else 4.0
-    keys, notes = guidance_keys(max(0.2, tau), s.get("t63_s_sd"))
+    tau = max(0.2, s["t63_s"] if math.isfinite(s["t63_s"]) else 4.0)
+    keys, notes = guidance_keys(tau, s.get("t63_s_sd"))
     tc = max(0.2, s["tc_s"] if math.isfinite(s["tc_s"]) else tau)
     delay = max(0.0, s["delay_s"]) if math.isfinite(s["delay_s"]) else 0.5
-    pm, wc = phase_margin_deg(LAW_T_LA_S / (delay + tc), tc, delay)  # the defaults' lookahead time
+    # the loop gain of the defaults' lookahead time against the measured response (gain x tau = T_la)
+    pm, wc = phase_margin_deg(LAW_T_LA_S / tau, tc, delay)
     R = circle["radius_m"] + 2.0 * (circle["radius_sd_m"] if math.isfinite(circle["radius_sd_m"]) else 0.5)
     R = round(min(100.0, max(2.0, R)), 1)
     guidance = {"law": "los"}
