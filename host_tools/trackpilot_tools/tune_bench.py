@@ -62,8 +62,57 @@ def fit_boat(row, out, params):
     row["fit"]["rudder_lag_s"] = n["rudder_lag_s"]
     row["truth"]["radius_m"] = truth["length_m"] / (truth["k_prime"] * ci["rudder_deg"] * math.pi / 180.0)
     row["refusals"] = fit["problems"]
+    _more_truth(row, out, params, fit)
     (Path(out) / "tune_config.json").write_text(json.dumps(fit["config"], indent=1))
     return row
+
+
+def _more_truth(row, out, params, fit):
+    """The fitted compass offset and deviation, RPM -> water speed map and current beside what the
+    simulator sailed: the offset as the compass showed it over the trial (its drawn offset plus its
+    slow drift, against the true heading put through the compass's own lag), the speed from the boat's map at each trial RPM, the
+    current averaged over the circles that measure it (it walks)."""
+    import csv
+
+    from trackpilot_tools.sim.boat import interp_map
+
+    b, pl = params["boat"], params["pilot"]
+    c, sm, cur = fit["compass"], fit["speed_map"], fit["current"]
+    f, t = row["fit"], row["truth"]
+    f["dev_sin_deg"], f["dev_cos_deg"] = c["dev_sin_deg"], c["dev_cos_deg"]
+    t["dev_sin_deg"], t["dev_cos_deg"] = pl.get("compass_dev_sin_deg", 0.0), pl.get("compass_dev_cos_deg", 0.0)
+    scale = b.get("speed_map_scale", 1.0)
+    f["speed_mps"] = list(sm["speed_mps"])
+    t["speed_mps"] = [interp_map(b["rpm_speed_map"], rpm) * scale for rpm in sm["rpm"]]
+    f["current_e_mps"], f["current_n_mps"] = cur["east_mps"], cur["north_mps"]
+    path = Path(out) / "truth.csv"
+    if not path.is_file():
+        return
+    t0 = fit["trial"]["start_s"]
+    circles = [(t0 + a, t0 + z) for kind, a, z in fit["trial"]["manoeuvres"] if kind == "circle"]
+    off, ce, cn = [], [], []
+    lag_s = pl["compass_lag_s"]
+    h_lag = None  # the true heading through the compass's own lag: the offset in turns too
+    t_prev = None
+    for r in csv.DictReader(path.open()):
+        ts, h = float(r["t_s"]), float(r["heading_deg"])
+        if any(a <= ts <= z for a, z in circles):
+            ce.append(float(r["current_e_mps"]))
+            cn.append(float(r["current_n_mps"]))
+        if h_lag is None:
+            h_lag = h
+        else:
+            a = 1.0 - math.exp(-(ts - t_prev) / lag_s) if lag_s > 0.0 else 1.0
+            h_lag = (h_lag + a * ((h - h_lag + 180.0) % 360.0 - 180.0)) % 360.0
+        t_prev = ts
+        if r["compass_deg"] and t0 <= ts <= t0 + fit["trial"]["duration_s"]:
+            hr = math.radians(h_lag)
+            dev = t["dev_sin_deg"] * math.sin(hr) + t["dev_cos_deg"] * math.cos(hr)
+            off.append((float(r["compass_deg"]) - h_lag - dev + 180.0) % 360.0 - 180.0)
+    if off:
+        f["offset_deg"], t["offset_deg"] = c["offset_deg"], sum(off) / len(off)
+    if ce:
+        t["current_e_mps"], t["current_n_mps"] = sum(ce) / len(ce), sum(cn) / len(cn)
 
 
 def table(rows):
@@ -88,6 +137,29 @@ def table(rows):
         k = 100.0 if rel else 1.0
         lines.append("%-14s |error| median %.3g%s, p90 %.3g%s, worst %.3g%s; within %g%s: %d/%d" % (
             key, med * k, unit, p90 * k, unit, e[-1] * k, unit, goal * k, unit, within, len(e)))
+    # the rest of what the trial identifies (absolute errors where a share of a small value means
+    # nothing: an offset of 0.5 deg, a current of 0.01 m/s)
+    for key, goal, unit, fn in (
+            ("offset_deg", 1.0, " deg", lambda f, t: abs(f - t)),
+            ("dev_sin_deg", 1.0, " deg", lambda f, t: abs(f - t)),
+            ("dev_cos_deg", 1.0, " deg", lambda f, t: abs(f - t)),
+            ("speed_mps", 0.15, "%", lambda f, t: max(abs(a / b - 1.0) for a, b in zip(f, t))),
+            ("current", 0.03, " m/s", None)):
+        e = []
+        for r in ok:
+            f, t = r["fit"], r["truth"]
+            if key == "current":
+                if "current_e_mps" in t:
+                    e.append(math.hypot(f["current_e_mps"] - t["current_e_mps"], f["current_n_mps"] - t["current_n_mps"]))
+            elif key in f and key in t:
+                e.append(fn(f[key], t[key]))
+        if not e:
+            continue
+        e.sort()
+        k = 100.0 if unit == "%" else 1.0
+        lines.append("%-14s |error| median %.3g%s, p90 %.3g%s, worst %.3g%s; within %g%s: %d/%d" % (
+            key, e[len(e) // 2] * k, unit, e[min(len(e) - 1, int(0.9 * len(e)))] * k, unit, e[-1] * k, unit,
+            goal * k, unit, sum(1 for x in e if x <= goal), len(e)))
     dur = [r["trial_s"] for r in ok]
     lines.append("trial duration: %.0f-%.0f s" % (min(dur), max(dur)))
     # is the stated uncertainty honest: |error| <= 2 sigma; and what tune accepts

@@ -63,6 +63,26 @@ def test_trial_tune_sim(trial_run, tmp_path, capsys):
     assert "AUTO" in text
 
 
+def test_tune_bench_checks_everything_the_trial_identifies(trial_run):
+    """tune_bench compares the compass offset (the one the compass showed: its drift included) and
+    deviation, the RPM -> speed map and the current with the simulator's, beside Nomoto."""
+    from trackpilot_tools import tune_bench
+
+    run, _ = trial_run
+    row = tune_bench.fit_boat({"seed": 3}, run.out, run.p)
+    f, t = row["fit"], row["truth"]
+    assert t["offset_deg"] != run.p["pilot"]["compass_offset_deg"]  # measured, not the drawn value
+    assert abs(f["offset_deg"] - t["offset_deg"]) < 1.0
+    assert abs(f["dev_sin_deg"] - t["dev_sin_deg"]) < 1.0 and abs(f["dev_cos_deg"] - t["dev_cos_deg"]) < 1.0
+    assert len(f["speed_mps"]) == len(t["speed_mps"]) >= 2
+    for got, want in zip(f["speed_mps"], t["speed_mps"]):
+        assert got == pytest.approx(want, rel=0.15)
+    assert abs(f["current_e_mps"] - t["current_e_mps"]) < 0.03 and abs(f["current_n_mps"] - t["current_n_mps"]) < 0.03
+    text = tune_bench.table([row])
+    for key in ("offset_deg", "dev_sin_deg", "speed_mps", "current"):
+        assert key in text, text
+
+
 def test_trial_with_the_low_speed_circle_tune_sim(tmp_path, capsys):
     """trial.circle_low_turns: a circle right after the low-speed zig-zag; tune fits a current for
     it and one for the circles at the end, and the result sails."""
