@@ -158,9 +158,10 @@ class LosLaw:
     the closed heading response's spread with a stability margin (docs/NAVIGATION.md); with accel_la
     (off by default) from that share of the planned speed while the boat speeds up after an engage.
     On a slow leg (planned speed U < slow_ref_mps) the heading response slows as 1 / U: lookahead
-    time, lead and ALOS integral time x slow_ref / max(U, slow_min_mps), and the ALOS learns only
-    while the course made good runs along the path (slow_chi_deg; "Fifth round"); on the other
-    legs too (alos_chi_deg; "Sixth round").
+    time and lead x slow = slow_ref / max(U, slow_min_mps), the ALOS gain / slow^slow_alos (3: its
+    integral feeds a slow pilot's swings there; "Ninth round"), and the ALOS learns only while the
+    course made good runs along the path (slow_chi_deg; "Fifth round"); on the other legs too
+    (alos_chi_deg; "Sixth round").
     Defaults: docs/NAVIGATION.md "Tuning".
     Corners are arcs of radius round_factor * turn_radius_m, shrunk where legs are too short
     (never below turn_radius_m / 2; sharper corners and reversals >= 170 deg are not rounded).
@@ -188,7 +189,7 @@ class LosLaw:
         "alos_zone_m": (5.0, "m", 0.1, 100.0, "adapt only within this distance of the path"),
         "slow_ref_mps": (2.0, "m/s", 0.0, 5.0, "slow leg: below this planned speed lookahead time, lead and ALOS integral time grow as slow_ref / U (0 = off)"),
         "slow_min_mps": (1.0, "m/s", 0.1, 5.0, "slow leg: below this planned speed the schedule grows no more"),
-        "slow_alos": (1.0, "1", 0.0, 1.0, "slow leg: the ALOS gain divided by slow_ref / U (1 = on)"),
+        "slow_alos": (3.0, "1", 0.0, 4.0, "slow leg: the ALOS gain divided by (slow_ref / U) to this power (0 = full gain, 1 = its integral time grows with the lookahead time)"),
         "slow_chi_deg": (5.0, "deg", 0.0, 90.0, "slow leg: the ALOS learns with weight 1 - |course made good - path| / this (0 = always)"),
         "alos_chi_deg": (5.0, "deg", 0.0, 90.0, "legs at or above slow_ref_mps: the ALOS learns with weight 1 - |course made good - path| / this (0 = always)"),
         "alos_lead_s": (15.0, "s", 0.0, 60.0, "the ALOS learns on the xte predicted this far ahead from the course made good: damps its slow loop (0 = off)"),
@@ -469,10 +470,11 @@ class LosLaw:
             chi_rad = wrap180(fix.heading_deg + self.crab_f_deg - prog.leg_bearing_deg) * _RAD - tan_rad
         w = 1.0
         if slow > 1.0:
-            # a slow leg: the ALOS's integral time grows with the lookahead time, and it learns a
-            # steady offset (the course made good along the path), not the long approach or a swing
+            # a slow leg: the ALOS's integral time grows faster than the lookahead time (its
+            # integral fed a slow pilot's swings), and it learns a steady offset (the course made
+            # good along the path), not the long approach or a swing
             if self.slow_alos > 0.0:
-                w = 1.0 / slow
+                w = 1.0 / math.pow(slow, self.slow_alos)
             if self.slow_chi_deg > 0.0 and self.crab_ok:
                 w *= 1.0 - abs(chi_rad) / (self.slow_chi_deg * _RAD)
         elif self.alos_chi_deg > 0.0 and self.crab_ok:
