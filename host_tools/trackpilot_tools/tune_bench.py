@@ -70,8 +70,8 @@ def fit_boat(row, out, params):
 def _more_truth(row, out, params, fit):
     """The fitted compass offset and deviation, RPM -> water speed map and current beside what the
     simulator sailed: the offset as the compass showed it over the trial (its drawn offset plus its
-    slow drift, against the true heading put through the compass's own lag), the speed from the boat's map at each trial RPM, the
-    current averaged over the circles that measure it (it walks)."""
+    slow drift, against the true heading put through the compass's own lag), the speed from the
+    boat's map at each trial RPM, the current averaged over the circles that measure it (it walks)."""
     import csv
 
     from trackpilot_tools.sim.boat import interp_map

@@ -187,7 +187,7 @@ class LosLaw:
         "alos_gain": (0.004, "rad/(m s)", 0.0, 0.1, "adaptive crab gain gamma (0 = off)"),
         "alos_max_deg": (20.0, "deg", 0.0, 45.0, "clamp of the adaptive crab estimate"),
         "alos_zone_m": (5.0, "m", 0.1, 100.0, "adapt only within this distance of the path"),
-        "slow_ref_mps": (2.0, "m/s", 0.0, 5.0, "slow leg: below this planned speed lookahead time, lead and ALOS integral time grow as slow_ref / U (0 = off)"),
+        "slow_ref_mps": (2.0, "m/s", 0.0, 5.0, "slow leg: below this planned speed lookahead time and lead grow as slow_ref / U, the ALOS gain falls (slow_alos) (0 = off)"),
         "slow_min_mps": (1.0, "m/s", 0.1, 5.0, "slow leg: below this planned speed the schedule grows no more"),
         "slow_alos": (3.0, "1", 0.0, 4.0, "slow leg: the ALOS gain divided by (slow_ref / U) to this power (0 = full gain, 1 = its integral time grows with the lookahead time)"),
         "slow_chi_deg": (5.0, "deg", 0.0, 90.0, "slow leg: the ALOS learns with weight 1 - |course made good - path| / this (0 = always)"),
