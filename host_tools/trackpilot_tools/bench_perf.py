@@ -67,7 +67,18 @@ def write_wrapper(path, lib, profile=False):
 
 def mission_track(path, loops=3, speed_factor=0.88):
     """The example loop sailed `loops` times (about 18 min each), mooring only at the end, every
-    speed x speed_factor so that the whole mission lasts a little over an hour."""
+    speed x speed_factor so that the whole mission lasts a little over an hour. Each waypoint's
+    name gets the loop's number, cut so that it stays within the display's width (the firmware
+    refuses longer names)."""
+    from .sim.runner import _fw_import
+
+    _fw_import()
+    from trackpilot.nav.track import MAX_NAME_CHARS
+
+    def named(name, k):
+        sfx = "_%d" % k
+        return name[:MAX_NAME_CHARS - len(sfx)] + sfx if name else ""
+
     lines = (ROOT / "tracks" / "middelburg_loop.csv").read_text().splitlines()
     head = [l for l in lines if l.startswith("lon,")][0]
     rows = [l.split("#")[0].strip() for l in lines if l and l[0] in "0123456789-"]
@@ -76,12 +87,9 @@ def mission_track(path, loops=3, speed_factor=0.88):
     for k in range(loops):
         for i, r in enumerate(rows):
             f = r.split(",")
-            if k < loops - 1:
-                if i >= moor:
-                    break  # back to the start instead of mooring
-                f[3] = "%s_%d" % (f[3], k) if f[3] else ""
-            else:
-                f[3] = "%s_%d" % (f[3], k) if f[3] else ""
+            if k < loops - 1 and i >= moor:
+                break  # back to the start instead of mooring
+            f[3] = named(f[3], k)
             f[2] = "%.2f" % (float(f[2]) * speed_factor)
             out.append(",".join(f))
     Path(path).write_text("\n".join(out) + "\n")

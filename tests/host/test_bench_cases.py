@@ -27,3 +27,24 @@ def test_case_reaction(tmp_path, name):
 
 
 pytestmark = pytest.mark.mpy  # runs the firmware under $MICROPYTHON (so make test's 32-bit pass too)
+
+
+def test_the_benchmark_mission_is_a_track_the_firmware_takes(tmp_path):
+    """`make bench`'s compute and memory mission (the example loop three times): every name stays
+    within the display's width once it carries its loop's number. It did not ('bridge_approach_0',
+    17 characters), and the firmware refused the mission, so the full benchmark had no CPU, heap or
+    log figures."""
+    from trackpilot_tools import bench_perf
+    from trackpilot_tools.sim.runner import _fw_import
+
+    _fw_import()
+    from trackpilot.nav.track import MAX_NAME_CHARS, parse_track_csv
+
+    path = bench_perf.mission_track(str(tmp_path / "mission.csv"))
+    text = Path(path).read_text()
+    one = parse_track_csv((bench_perf.ROOT / "tracks" / "middelburg_loop.csv").read_text())
+    trk = parse_track_csv(text)  # raises TrackError on a name too long
+    assert len(trk.waypoints) > 2 * len(one.waypoints)
+    names = [l.split(",")[3] for l in text.splitlines() if l and l[0] in "0123456789-"]
+    assert all(len(n) <= MAX_NAME_CHARS for n in names)
+    assert "bridge_approac_0" in names and "bridge_approac_2" in names
