@@ -272,6 +272,12 @@ def _first(recs, pred, t_from, t_to=1e9):
 def evaluate(name, dur, ctl, evs, res, r):
     _, expected, kind = SPEC[name]
     F = T_FAULT
+    if name == "remote_key_echo":
+        # armed at T_FAULT, the hand remote repeats the firmware's next keystroke: the person acts
+        # then (seconds later on a settled straight), and the reaction is timed from it
+        acted = [t for t, k, txt in res["events"] if k == "fault" and "hand remote repeats" in txt]
+        if acted:
+            F = acted[0]
     E = F + (dur or 0.0)
     after = [c for c in ctl if c.t_sim >= F]
     detect = None

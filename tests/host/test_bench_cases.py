@@ -26,6 +26,18 @@ def test_case_reaction(tmp_path, name):
     assert row["reaction_ok"], row
 
 
+def test_hand_remote_takeover_is_timed_from_the_remotes_key(tmp_path):
+    """The fault matrix's remote_key_echo: armed at 40 s, the remote repeats the firmware's next
+    keystroke, seconds later on a settled straight. The check timed the takeover from 40 s and
+    called a 0.1 s takeover at 42.2 s 'no' (make bench: 29 of 30)."""
+    track = benchtracks.uturn(str(tmp_path / "u.csv"), 20, length_m=200.0)
+    row = bench_faults.run_fault({"fault": "remote_key_echo", "track": track, "out": str(tmp_path / "r"),
+                                  "timeout": 120})
+    assert row["failure"] is None, row
+    assert row["reaction_ok"], row
+    assert row["detect_s"] is not None and row["detect_s"] <= 0.5, row
+
+
 pytestmark = pytest.mark.mpy  # runs the firmware under $MICROPYTHON (so make test's 32-bit pass too)
 
 
