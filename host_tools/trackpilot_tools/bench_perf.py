@@ -37,8 +37,9 @@ WASM_DIR = ROOT / "build" / "micropython-wasm32"
 
 # ---------------------------------------------------------------------- the .mpy build
 def build_mpy(out):
-    """deploy's build (device_cmd.build) into out/mpy, plus simio, wiring_sim and sim_main compiled
-    the same way (the simulation adapters deploy leaves off the board). Returns the lib dir."""
+    """deploy's build (device_cmd.build) into out/mpy, plus simio, wiring_sim, wiring_bench (the
+    footprint's wiring) and sim_main compiled the same way (the simulation adapters deploy leaves
+    off the board). Returns the lib dir."""
     from .device_cmd import build, mpy_cross_cmd
 
     out = Path(out)
@@ -50,6 +51,7 @@ def build_mpy(out):
     (lib / "trackpilot" / "sim" / "__init__.py").write_text("")
     for src, dest, name in ((FIRMWARE_DIR / "trackpilot" / "sim" / "simio.py", lib / "trackpilot" / "sim" / "simio.mpy", "trackpilot/sim/simio.py"),
                             (FIRMWARE_DIR / "trackpilot" / "sim" / "wiring_sim.py", lib / "trackpilot" / "sim" / "wiring_sim.mpy", "trackpilot/sim/wiring_sim.py"),
+                            (FIRMWARE_DIR / "trackpilot" / "sim" / "wiring_bench.py", lib / "trackpilot" / "sim" / "wiring_bench.mpy", "trackpilot/sim/wiring_bench.py"),
                             (FIRMWARE_DIR / "sim_main.py", lib / "sim_main.mpy", "sim_main.py")):
         subprocess.run(mpy_cross_cmd() + ["-o", str(dest), "-s", name, str(src)], check=True, capture_output=True)
     return lib

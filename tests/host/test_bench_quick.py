@@ -70,6 +70,11 @@ def test_numbers_present_and_sane(bench):
     assert cm["log_bytes_per_hour"] > 10_000
     assert cm["mission"]["sim_speed_x"] > 5
     assert cm["sim_speed_alone"]["sim_speed_x"] > 5
+    # the footprint (code + App + track + GNSS epochs) on the unix port: it failed on an import the
+    # .mpy build lacked (trackpilot.sim.wiring_bench), and the ESP32 figures fell back to x0.5
+    fu = cm["footprint"]["unix64"]
+    assert "error" not in fu, fu
+    assert 0 < fu["code_B"] < fu["peak_B"], fu
     ps = cm["parser"]
     assert ps["micropython_unix_bytes_per_s"] > 0 and ps["pyubx2_cpython_bytes_per_s"] > 0
     assert ps["ratio_micropython_over_pyubx2"] > 0
