@@ -590,7 +590,9 @@ def frozen_heap(job):
     """Start-up and steady-state heap of the frozen 32-bit build (sim_main --heap-stages) for each
     (name, track) of job["tracks"] at each -X heapsize of job["heaps"] (for job["duration_s"]
     simulated seconds if given, else until the track is done; steady-state stages every
-    job["heap_every_s"], default 600). Runs in a worker."""
+    job["heap_every_s"], default 600). With job["esp32_heap_B"], each track also runs at that heap
+    plus the frozen code's records, measured in a 5 s probe at 256 KB: on a board those records
+    are in flash (docs/MEMORY.md, tests/host/test_frozen_heap.py). Runs in a worker."""
     interp, why = build_frozen()
     if interp is None:
         return {"error": "frozen build failed: %s" % why}
@@ -603,18 +605,29 @@ def frozen_heap(job):
     saved = os.environ.get("MICROPYTHON")
     os.environ["MICROPYTHON"] = _q(interp)
     runs = []
+
+    def one(name, track, heap, duration_s, tag=""):
+        rdir = out / ("%s_%d%s" % (name, heap, tag))
+        fig = run_mission({"track": track, "out": str(rdir), "wrapper": str(wrapper), "heap": heap,
+                           "timeout": job.get("timeout", 900), "duration_s": duration_s})
+        err = (rdir / "firmware_stderr.txt").read_text(errors="replace")
+        return {"track": name, "heap": heap, "ok": fig.get("ok"), "stop": fig.get("stop"),
+                "memory_error": fig.get("memory_error"), "sim_s": fig.get("sim_s"),
+                "peak_heap_B": fig.get("peak_heap_B"), "gc_max_pause_us": fig.get("gc_max_pause_us"),
+                "failure": fig.get("failure"), "stderr_tail": err[-800:],
+                "stages": parse_heap_stages(err), "gc": parse_gc_stages(err)}
+
     try:
         for name, track in job["tracks"]:
+            if job.get("esp32_heap_B"):
+                probe = one(name, track, 256 * 1024, 5, "_probe")
+                started = [st["loader_B"] for st in probe["stages"] if st["stage"] == "tasks started"]
+                if started and started[0]:
+                    r = one(name, track, job["esp32_heap_B"] + started[0], job.get("duration_s"))
+                    r["esp32_heap_B"], r["records_B"] = job["esp32_heap_B"], started[0]
+                    runs.append(r)
             for heap in job["heaps"]:
-                rdir = out / ("%s_%d" % (name, heap))
-                fig = run_mission({"track": track, "out": str(rdir), "wrapper": str(wrapper), "heap": heap,
-                                   "timeout": job.get("timeout", 900), "duration_s": job.get("duration_s")})
-                err = (rdir / "firmware_stderr.txt").read_text(errors="replace")
-                runs.append({"track": name, "heap": heap, "ok": fig.get("ok"), "stop": fig.get("stop"),
-                             "memory_error": fig.get("memory_error"), "sim_s": fig.get("sim_s"),
-                             "peak_heap_B": fig.get("peak_heap_B"), "gc_max_pause_us": fig.get("gc_max_pause_us"),
-                             "failure": fig.get("failure"), "stderr_tail": err[-800:],
-                             "stages": parse_heap_stages(err), "gc": parse_gc_stages(err)})
+                runs.append(one(name, track, heap, job.get("duration_s")))
     finally:
         if saved is None:
             os.environ.pop("MICROPYTHON", None)
@@ -634,8 +647,10 @@ def frozen_heap_lines(fh):
          "collection; largest free block from `gcinfo`):"]
     for r in fh.get("runs", []):
         L.append("")
-        L.append("  %s at `-X heapsize=%d` (%d KB): %s; peak live %s B, max GC pause %s us (host)." % (
-            r["track"], r["heap"], r["heap"] // 1024,
+        at = ("%d KB + the frozen code's records, %d B: in flash on a board" % (r["esp32_heap_B"] // 1024, r["records_B"])
+              if r.get("esp32_heap_B") else "%d KB" % (r["heap"] // 1024))
+        L.append("  %s at `-X heapsize=%d` (%s): %s; peak live %s B, max GC pause %s us (host)." % (
+            r["track"], r["heap"], at,
             "completes" if r["ok"] else "fails (%s%s)" % (r.get("stop"), ", MemoryError" if r.get("memory_error") else ""),
             _fmt(r.get("peak_heap_B")), _fmt(r.get("gc_max_pause_us"))))
         L.append("")

@@ -174,3 +174,21 @@ def test_track_at_the_budget_in_the_esp32_heap(frozen, tmp_path):
     steady = [s for s in run["stages"] if s["stage"].startswith("t=")]
     assert len(steady) >= 2, run["stages"]
     assert min(s["largest_free_B"] for s in steady) >= STEADY_LARGEST_FREE_B, steady
+
+
+def test_bench_runs_the_esp32_heap_with_the_records_and_judges_by_it(frozen, tmp_path):
+    """`make bench`'s frozen section ran 110 KB with the frozen code's records counted against it
+    (a MemoryError a board would not have), and its summary judged the 110 KB goal by the .mpy
+    estimate. It now runs 110 KB + the records measured in a probe, and the goal row reads that."""
+    from trackpilot_tools import bench_cmd
+
+    res = bench_perf.frozen_heap({"out": str(tmp_path / "b"), "tracks": [("mission", str(LOOP))], "heaps": [],
+                                  "esp32_heap_B": ESP32_HEAP_B, "timeout": 600})
+    assert "error" not in res, res.get("error")
+    (r,) = res["runs"]
+    assert r["records_B"] > 20_000 and r["heap"] == ESP32_HEAP_B + r["records_B"], r
+    assert r["ok"], r["stderr_tail"]
+    assert any("the frozen code's records" in line for line in bench_perf.frozen_heap_lines(res))
+    perf = {"frozen_heap": res, "esp32_equiv": {"min_heap_B": 300 * 1024, "method_short": "x0.68"}}
+    row = [g for g in bench_cmd.goals([], {}, perf, []) if g[0].startswith("One-hour mission")][0]
+    assert row[2] is True and "frozen 32-bit build at 110 KB" in row[1], row
