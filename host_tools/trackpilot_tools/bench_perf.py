@@ -604,7 +604,7 @@ def frozen_heap(job):
                        "sys.argv.extend(['--heap-every', '%d'])\nimport sim_main\n" % job.get("heap_every_s", 600))
     saved = os.environ.get("MICROPYTHON")
     os.environ["MICROPYTHON"] = _q(interp)
-    runs = []
+    runs, notes = [], []
 
     def one(name, track, heap, duration_s, tag=""):
         rdir = out / ("%s_%d%s" % (name, heap, tag))
@@ -626,6 +626,10 @@ def frozen_heap(job):
                     r = one(name, track, job["esp32_heap_B"] + started[0], job.get("duration_s"))
                     r["esp32_heap_B"], r["records_B"] = job["esp32_heap_B"], started[0]
                     runs.append(r)
+                else:  # said in the report: the summary then falls back to the .mpy estimate
+                    notes.append("%s: no run at %d KB + the frozen code's records: the probe gave no records "
+                                 "(%s)" % (name, job["esp32_heap_B"] // 1024,
+                                           probe.get("failure") or probe["stderr_tail"][-200:]))
             for heap in job["heaps"]:
                 runs.append(one(name, track, heap, job.get("duration_s")))
     finally:
@@ -633,7 +637,7 @@ def frozen_heap(job):
             os.environ.pop("MICROPYTHON", None)
         else:
             os.environ["MICROPYTHON"] = saved
-    return {"interpreter": interp, "runs": runs}
+    return {"interpreter": interp, "runs": runs, "notes": notes}
 
 
 def frozen_heap_lines(fh):
@@ -645,6 +649,8 @@ def frozen_heap_lines(fh):
     L = ["- **Heap, frozen 32-bit build** (`tools/build_micropython_f32.sh --frozen`: 32-bit, float32, the "
          "firmware as .mpy images in the binary, imported in place; `sim_main --heap-stages`; live = after a "
          "collection; largest free block from `gcinfo`):"]
+    for n in fh.get("notes", []):
+        L.append("  - " + n)
     for r in fh.get("runs", []):
         L.append("")
         at = ("%d KB + the frozen code's records, %d B: in flash on a board" % (r["esp32_heap_B"] // 1024, r["records_B"])

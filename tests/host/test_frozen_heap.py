@@ -44,14 +44,17 @@ def _one(tmp_path, name, heap, duration_s=None, track=LOOP):
 
 @pytest.fixture(scope="module")
 def loop_at_esp32_heap(frozen, tmp_path_factory):
-    """The example loop, whole, at 110 KB + the frozen code's records."""
+    """The example loop, whole, at 110 KB + the frozen code's records: the bench's own run
+    (bench_perf.frozen_heap with esp32_heap_B: a 5 s probe measures the records first). Returns
+    (records, the run, the whole result)."""
     tmp = tmp_path_factory.mktemp("frozen_heap")
-    probe = _one(tmp, "probe", 256 * 1024, duration_s=5)
-    started = [s for s in probe["stages"] if s["stage"] == "tasks started"]
-    assert started and started[0]["loader_B"], probe["stderr_tail"]
-    records = started[0]["loader_B"]
-    run = _one(tmp, "esp32", ESP32_HEAP_B + records)
-    return records, run
+    res = bench_perf.frozen_heap({"out": str(tmp / "esp32"), "tracks": [("mission", str(LOOP))], "heaps": [],
+                                  "esp32_heap_B": ESP32_HEAP_B, "timeout": 600})
+    assert "error" not in res, res.get("error")
+    assert res["runs"] and not res.get("notes"), res
+    run = res["runs"][0]
+    assert run["records_B"] and run["heap"] == ESP32_HEAP_B + run["records_B"], run
+    return run["records_B"], run, res
 
 
 def test_loader_records_match_the_mpy_estimate(frozen, tmp_path):
@@ -71,7 +74,7 @@ def test_loader_records_match_the_mpy_estimate(frozen, tmp_path):
 
 
 def test_loop_completes_in_the_esp32_heap(loop_at_esp32_heap):
-    records, run = loop_at_esp32_heap
+    records, run, _ = loop_at_esp32_heap
     assert not run["memory_error"], run["stderr_tail"]
     assert run["stop"] == "finished" and not run["failure"], (run["stop"], run["stderr_tail"])
     steady = [s for s in run["stages"] if s["stage"].startswith("t=")]
@@ -83,7 +86,7 @@ def test_loop_completes_in_the_esp32_heap(loop_at_esp32_heap):
 def test_loop_steady_largest_free_block(loop_at_esp32_heap):
     """Issue 13's goal: the free heap in steady state keeps a 16 KB block (it was in pieces of
     2.5-6 KB before the app collected after every heap/16 bytes allocated, docs/MEMORY.md)."""
-    records, run = loop_at_esp32_heap
+    records, run, _ = loop_at_esp32_heap
     steady = [s for s in run["stages"] if s["stage"].startswith("t=")]
     assert steady and min(s["largest_free_B"] for s in steady) >= STEADY_LARGEST_FREE_B, steady
 
@@ -176,17 +179,14 @@ def test_track_at_the_budget_in_the_esp32_heap(frozen, tmp_path):
     assert min(s["largest_free_B"] for s in steady) >= STEADY_LARGEST_FREE_B, steady
 
 
-def test_bench_runs_the_esp32_heap_with_the_records_and_judges_by_it(frozen, tmp_path):
+def test_bench_runs_the_esp32_heap_with_the_records_and_judges_by_it(loop_at_esp32_heap):
     """`make bench`'s frozen section ran 110 KB with the frozen code's records counted against it
     (a MemoryError a board would not have), and its summary judged the 110 KB goal by the .mpy
     estimate. It now runs 110 KB + the records measured in a probe, and the goal row reads that."""
     from trackpilot_tools import bench_cmd
 
-    res = bench_perf.frozen_heap({"out": str(tmp_path / "b"), "tracks": [("mission", str(LOOP))], "heaps": [],
-                                  "esp32_heap_B": ESP32_HEAP_B, "timeout": 600})
-    assert "error" not in res, res.get("error")
-    (r,) = res["runs"]
-    assert r["records_B"] > 20_000 and r["heap"] == ESP32_HEAP_B + r["records_B"], r
+    records, r, res = loop_at_esp32_heap
+    assert records > 20_000, records
     assert r["ok"], r["stderr_tail"]
     assert any("the frozen code's records" in line for line in bench_perf.frozen_heap_lines(res))
     perf = {"frozen_heap": res, "esp32_equiv": {"min_heap_B": 300 * 1024, "method_short": "x0.68"}}
