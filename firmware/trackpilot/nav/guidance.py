@@ -23,6 +23,7 @@ import math
 
 from trackpilot.compat import wrap180, wrap360
 from trackpilot.nav.swing import SwingWatch
+from trackpilot.nav.tighten import Tighten
 from trackpilot.nav.turnwatch import TurnWatch
 
 _RAD = math.pi / 180.0
@@ -218,6 +219,10 @@ class LosLaw:
         "ram_ref_dps": (10.0, "deg/s", 1.0, 60.0, "the ram rate preview_s was set for"),
         "soft_knee_deg": (8.0, "deg", 1.0, 120.0, "on a straight crossed twice since it began, at the law's own clip: the relative command beyond this grows at soft_gain"),
         "soft_gain": (0.5, "1", 0.0, 1.0, "... by this share of the law's (1 = off)"),
+        "tight_scale": (0.67, "1", 0.3, 1.0, "once the boat has held the path: lookahead and lead x this (1 = off)"),
+        "tight_wait_s": (20.0, "s", 1.0, 600.0, "... held within tight_band_m on a straight this long"),
+        "tight_band_m": (0.5, "m", 0.05, 5.0, "... within this distance of the path"),
+        "tight_exit_m": (0.8, "m", 0.1, 10.0, "tightened, |xte| beyond this sets it back until the next engage"),
     }
 
     def __init__(self, **params):
@@ -243,6 +248,7 @@ class LosLaw:
         # what the boat achieves in turns (nav/turnwatch.py; its state lives there: the ESP32 heap
         # keeps this object's attribute table small): the boat's, so it outlives reset()
         self.turns = TurnWatch()
+        self.tight = Tighten()
         self.reset()
 
     def configure(self, params):
@@ -268,6 +274,7 @@ class LosLaw:
         self._approach = True
         self._stop_s = 0.0  # the pilot's rudder at its stop in the approach's overshoot
         self.turns.end()
+        self.tight.reset()
         if self.tau is not None:
             self.tau.reset()
         self.out.valid = False
@@ -459,6 +466,14 @@ class LosLaw:
                    self.lookahead_max_m) * self.tau_scale * self.la_scale
         if self.adapt_max_scale > 1.0:
             self._watch(dt_s, y, la / self.la_scale / u_la, self.on_straight)
+        # tightened once the boat has held the path ("Tenth round"); the watches' acts undo it
+        calm = (not out.clipped and self.la_scale == 1.0 and self.lead_scale == 1.0
+                and self.clip_scale == 1.0)
+        tight = self.tight.step(dt_s, y, self.on_straight, calm, self.tight_scale, self.tight_wait_s,
+                                self.tight_band_m, self.tight_exit_m)
+        if self.tight.note:
+            self._add_note(self.tight.note)
+        la *= tight
         # adaptive crab (ALOS), anti-windup: frozen while clipped (the command or the approach
         # angle), far off or slow
         # held through corners: a turn's lag is not a steady crab, and what it learnt there
@@ -494,7 +509,7 @@ class LosLaw:
         # damping: the xte predicted xte_lead_s ahead from the course made good (heading + the
         # filtered crab: quieter than the raw COG), so the heading loop's lag cannot ring
         y_lead = y
-        t_lead_s = self.xte_lead_s * self.lead_scale * self.la_scale * self.tau_scale * slow  # T_d / T_la kept
+        t_lead_s = self.xte_lead_s * self.lead_scale * self.la_scale * self.tau_scale * slow * tight  # T_d / T_la kept
         if t_lead_s > 0.0 and self.crab_ok:
             y_lead = y + t_lead_s * u * math.sin(chi_rad)
         corr = -math.atan2(y_lead, la) / _RAD
