@@ -219,10 +219,10 @@ class LosLaw:
         "ram_ref_dps": (10.0, "deg/s", 1.0, 60.0, "the ram rate preview_s was set for"),
         "soft_knee_deg": (8.0, "deg", 1.0, 120.0, "on a straight crossed twice since it began, at the law's own clip: the relative command beyond this grows at soft_gain"),
         "soft_gain": (0.5, "1", 0.0, 1.0, "... by this share of the law's (1 = off)"),
-        "tight_scale": (0.67, "1", 0.3, 1.0, "once the boat has held the path: lookahead and lead x this (1 = off)"),
-        "tight_wait_s": (20.0, "s", 1.0, 600.0, "... held within tight_band_m on a straight this long"),
+        "tight_scale": (0.5, "1", 0.3, 1.0, "once the boat has held the path: lookahead and lead x this (1 = off)"),
+        "tight_wait_s": (10.0, "s", 1.0, 600.0, "... held within tight_band_m on a straight this long"),
         "tight_band_m": (0.5, "m", 0.05, 5.0, "... within this distance of the path"),
-        "tight_exit_m": (0.8, "m", 0.1, 10.0, "tightened, |xte| beyond this sets it back until the next engage"),
+        "tight_exit_m": (0.6, "m", 0.1, 10.0, "tightened, |xte| beyond this sets it back until the next engage"),
     }
 
     def __init__(self, **params):

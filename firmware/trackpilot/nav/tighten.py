@@ -48,7 +48,7 @@ class Tighten:
             return 1.0
         if straight and calm and ay <= band_m:
             self.held_s += dt_s
-            if self.held_s >= wait_s:
+            if self.held_s >= wait_s - 0.5 * dt_s:  # the epoch nearest the wait (sums of dt_s)
                 self.on = True
                 self.note = "held within %.1f m for %.0f s: lookahead x%.2f" % (band_m, self.held_s, scale)
                 return scale
