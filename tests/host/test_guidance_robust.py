@@ -233,3 +233,18 @@ def test_a_cut_clip_lets_a_slow_turning_boat_back():
     adapt_clip_back = 0 (the law before) it fails: the test can fail."""
     job = {"case": "straight_2.0", "law": "los", "boat": 484, "timeout": 300.0}
     _settles_where_off_swings(job, {"guidance": {"los_adapt_clip_back": 0.0}}, 0.5, 5.0)
+
+
+def test_tightened_lookahead_holds_a_stiff_pilot_closer():
+    """Issue 10, tenth round (docs/NAVIGATION.md "Tenth round: tightened once the boat has held
+    the path"): boat 146 at 3 m/s (ST2000+ gain 2.27 deg/deg, damping 1.55 s, deadband 2.0 deg,
+    a 0.39 s key delay). On the 18 m lookahead its heading wanders inside the deadband and the
+    xte with it: 0.91 m settled RMS measured before this round. Once it has held the path within
+    0.5 m for 10 s the lookahead and the lead are halved (the default) and it holds 0.27 m. With
+    tight_scale = 1 (the law before) it is more than twice that: the test can fail."""
+    job = {"case": "straight_3.0", "law": "los", "boat": 146, "timeout": 300.0}
+    on = BR.run_job(job)["metrics"]
+    off = BR.run_job(dict(job, fw={"guidance": {"los_tight_scale": 1.0}}))["metrics"]
+    assert not on["failure"] and not on["osc"]["oscillates"], (on.get("why"), on["osc"])
+    assert on["settled_rms_m"] < 0.4, on["settled_rms_m"]
+    assert off["settled_rms_m"] > 2.0 * on["settled_rms_m"], (off["settled_rms_m"], on["settled_rms_m"])

@@ -163,6 +163,9 @@ class LosLaw:
     integral feeds a slow pilot's swings there; "Ninth round"), and the ALOS learns only while the
     course made good runs along the path (slow_chi_deg; "Fifth round"); on the other legs too
     (alos_chi_deg; "Sixth round").
+    Once the boat has held the path on a straight (tight_wait_s within tight_band_m), lookahead
+    and lead x tight_scale; back at once and until the next engage beyond tight_exit_m or on an
+    act of the swing watch (nav/tighten.py; "Tenth round").
     Defaults: docs/NAVIGATION.md "Tuning".
     Corners are arcs of radius round_factor * turn_radius_m, shrunk where legs are too short
     (never below turn_radius_m / 2; sharper corners and reversals >= 170 deg are not rounded).
@@ -469,7 +472,9 @@ class LosLaw:
         # tightened once the boat has held the path ("Tenth round"); the watches' acts undo it
         calm = (not out.clipped and self.la_scale == 1.0 and self.lead_scale == 1.0
                 and self.clip_scale == 1.0)
-        tight = self.tight.step(dt_s, y, self.on_straight, calm, self.tight_scale, self.tight_wait_s,
+        # on a slow leg less (scale^(1 / slow)): its sluggish pilots swing on the full scale
+        t_scale = self.tight_scale if slow == 1.0 else math.pow(self.tight_scale, 1.0 / slow)
+        tight = self.tight.step(dt_s, y, self.on_straight, calm, t_scale, self.tight_wait_s,
                                 self.tight_band_m, self.tight_exit_m)
         if self.tight.note:
             self._add_note(self.tight.note)

@@ -44,7 +44,8 @@ class Tighten:
                 return scale
             self.on = False
             self.blocked = True
-            self.note = "xte %.2f m on the tight lookahead: x1 until the next engage" % ay
+            why = "xte %.2f m" % ay if ay > exit_m else "the command clipped or the swing watch acting"
+            self.note = why + " on the tight lookahead: x1 until the next engage"
             return 1.0
         if straight and calm and ay <= band_m:
             self.held_s += dt_s
