@@ -170,7 +170,9 @@ def test_arcs_follow_the_boat():
     law.plan(trk)
     t.near(law.corner_radius_m(1), 13.5, 0.01)
     notes = _sail(law, trk, 4.0)
-    t.true(notes and notes[0].startswith("turned at"), repr(notes))
+    # the first the law says of the corners (the tenth round's tightening speaks of the legs)
+    said = [n for n in notes if "lookahead x" not in n]
+    t.true(said and said[0].startswith("turned at"), repr(notes))
     r = law.turns.radius_m
     t.near(r, 2.0 / math.radians(4.0), 3.0)  # the stretch includes the turn's start: a bit wider
     # the later corners are planned at turn_margin x the measured radius; legs of 60 m allow it
