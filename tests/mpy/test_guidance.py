@@ -663,3 +663,33 @@ def test_los_soft_clip_after_two_crossings():
     _soft_run(law, path)
     law.reset()
     t.eq(_soft_run(law, [6.0] * 20), _soft_run(LosLaw(soft_gain=1.0), [6.0] * 20))
+
+
+def test_clip_about_the_pilots_compass():
+    # 100 m west of a north leg: the law wants more than +45 deg; heading 0 by GNSS, the pilot's
+    # compass (true frame) still 12 deg behind a swing to port (348): clipped about the compass,
+    # the command is its compass + 45, not the GNSS heading + 45 (the error the pilot steers on)
+    fix = make_fix(-100.0, 40.0, 0.0)
+    law = LosLaw(clip_pilot_frame=2.0)  # always
+    law.pilot_heading_deg = 348.0
+    out = _step(law, Progress(_corner()), fix)
+    t.eq((out.clipped, out.rel_cmd_deg), (True, 45.0))
+    t.near(out.heading_cmd_deg, 33.0, 1e-4)
+    # the default (1): only once the watches have cut the clip; off (0); no fresh compass (None)
+    for frame, scale, compass, want in ((1.0, 1.0, 348.0, 45.0), (1.0, 0.5, 348.0, 10.5),
+                                        (0.0, 0.5, 348.0, 22.5), (2.0, 1.0, None, 45.0)):
+        law = LosLaw(clip_pilot_frame=frame)
+        law.clip_scale = scale
+        law.pilot_heading_deg = compass
+        out = _step(law, Progress(_corner()), fix)
+        t.near(out.heading_cmd_deg, want, 1e-4, (frame, scale, compass))
+    # not clipped: the law's own command whatever the compass says
+    fix = make_fix(0.0, 40.0, 0.0)
+    a, b = LosLaw(clip_pilot_frame=2.0), LosLaw(clip_pilot_frame=0.0)
+    a.pilot_heading_deg = 20.0
+    t.near(_step(a, Progress(_corner()), fix).heading_cmd_deg, _step(b, Progress(_corner()), fix).heading_cmd_deg, 1e-6)
+    # across north: compass 355, clipped at 30 deg -> 25
+    law = LosLaw(clip_deg=30.0, clip_pilot_frame=2.0)
+    law.pilot_heading_deg = 355.0
+    out = _step(law, Progress(_corner()), make_fix(-100.0, 40.0, 0.0))
+    t.near(out.heading_cmd_deg, 25.0, 1e-4)

@@ -386,6 +386,8 @@ class Autopilot:
         mm = self.mm
         guiding = mm.mode == M.AUTO and not mm.holding and (not mm.degraded or mm.dead_reckoning)
         leg_before = self.progress.leg if self.progress is not None else 0
+        if guiding and hasattr(self.law, "pilot_heading_deg"):
+            self.law.pilot_heading_deg = self.dr_heading(t_ms)  # the frame its clip works in
         ref, out = control.guide_epoch(nav, self.progress, self.law, self.cfg["boat"], guiding, dt_s)
         if ref is not None:
             self.ref_lat_e7 = ref[0]

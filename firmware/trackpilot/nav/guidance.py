@@ -226,6 +226,7 @@ class LosLaw:
         "tight_wait_s": (10.0, "s", 1.0, 600.0, "... held within tight_band_m on a straight this long"),
         "tight_band_m": (0.5, "m", 0.05, 5.0, "... within this distance of the path"),
         "tight_exit_m": (0.6, "m", 0.1, 10.0, "tightened, |xte| beyond this sets it back until the next engage"),
+        "clip_pilot_frame": (1.0, "1", 0.0, 2.0, "clip about the pilot's own compass, not the GNSS heading: 1 = once the watches cut the clip, 2 = always, 0 = never"),
     }
 
     def __init__(self, **params):
@@ -248,6 +249,9 @@ class LosLaw:
         self.tau_scale = 1.0
         self._tau_logged_s = 0.0
         self.on_straight = False
+        # the pilot's compass in the true frame (compass - learnt offset), set by the autopilot each
+        # epoch while fresh, else None: the heading the clip bounds the pilot's error about
+        self.pilot_heading_deg = None
         # what the boat achieves in turns (nav/turnwatch.py; its state lives there: the ESP32 heap
         # keeps this object's attribute table small): the boat's, so it outlives reset()
         self.turns = TurnWatch()
@@ -522,13 +526,21 @@ class LosLaw:
         corr = _clip(corr, -self.intercept_max_deg, self.intercept_max_deg)
         course = prog.leg_bearing_deg + (tan_rad + prev_rad) / _RAD + corr
         cmd = course - crab - self.beta_hat_rad / _RAD
-        rel = wrap180(cmd - fix.heading_deg)
+        # the clip bounds the error the pilot steers on: its locked course minus its own compass.
+        # About the GNSS heading instead, a clipped command follows the true heading, and the
+        # pilot's lagging compass turns that into rate feedback of the wrong sign (kp x lag
+        # beyond its own kd: a swing that grows; docs/NAVIGATION.md "Eleventh round")
+        h_ref = fix.heading_deg
+        if (self.pilot_heading_deg is not None and self.clip_pilot_frame > 0.0
+                and (self.clip_pilot_frame >= 2.0 or self.clip_scale < 1.0)):
+            h_ref = self.pilot_heading_deg
+        rel = wrap180(cmd - h_ref)
         lim = self.clip_deg * self.clip_scale if arc_r == 0.0 else self.clip_deg  # turns: as set
         if self.adapt_clip_back > 0.0 and arc_r == 0.0 and self.clip_scale < 1.0 and y * chi_rad > 0.0:
             # moving away from the path under a clip the watches cut: the pilot may still be asked
             # for the course parallel to the path, so a slow turn cannot carry the boat 20 m off
             # ("Seventh round: the clip lets the boat turn back")
-            par = wrap180(prog.leg_bearing_deg + tan_rad / _RAD - crab - fix.heading_deg)
+            par = wrap180(prog.leg_bearing_deg + tan_rad / _RAD - crab - h_ref)
             if par * rel > 0.0:
                 lim = max(lim, min(abs(par), self.clip_deg))
         out.clipped = rel > lim or rel < -lim
@@ -542,7 +554,7 @@ class LosLaw:
                 and self.clip_scale == 1.0):
             rel = _soft(rel, self.soft_knee_deg, self.soft_gain)
         out.rel_cmd_deg = rel
-        out.heading_cmd_deg = wrap360(fix.heading_deg + rel)
+        out.heading_cmd_deg = wrap360(h_ref + rel)
         out.ref_course_deg = wrap360(prog.leg_bearing_deg + (tan_rad + prev_rad) / _RAD)
         out.xte_m = prog.xte_m
         out.path_xte_m = y
