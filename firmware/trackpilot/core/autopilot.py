@@ -606,6 +606,12 @@ class Autopilot:
         text = self.pilot_watch.step(st_ms, dt_s, p.heading_deg, p.course_deg)
         if self.mm.mode == M.AUTO and hasattr(self.law, "pilot_rudder"):  # los: a ram at its stop in the approach's overshoot
             self.law.pilot_rudder(dt_s, p.rudder_deg)
+        if (self.mm.mode == M.AUTO and self.mm.pilot == M.PILOT_STEER and p.commanding()
+                and hasattr(self.law, "pilot_status")):  # los: the pilot's own gain (nav/pilotgain.py)
+            note = self.law.pilot_status(st_ms, p.heading_deg, p.course_deg, p.rudder_deg,
+                                         self.cfg["pilot"]["deadband_deg"])
+            if note:
+                self.event("GUIDE", note)
         if text:
             self.event("PILOT", text)
             if self.pilot_watch.hunting and self.mm.mode == M.AUTO and hasattr(self.law, "pilot_hunts"):

@@ -24,7 +24,7 @@ import math
 from trackpilot.compat import wrap180, wrap360
 from trackpilot.nav.swing import SwingWatch
 from trackpilot.nav.tighten import Tighten
-from trackpilot.nav.turnwatch import TurnWatch
+from trackpilot.nav.turnwatch import RAM_TRUST_DEG, TurnWatch
 
 _RAD = math.pi / 180.0
 _HALF_PI = math.pi * 0.5
@@ -227,6 +227,8 @@ class LosLaw:
         "tight_band_m": (0.5, "m", 0.05, 5.0, "... within this distance of the path"),
         "tight_exit_m": (0.6, "m", 0.1, 10.0, "tightened, |xte| beyond this sets it back until the next engage"),
         "clip_pilot_frame": (1.0, "1", 0.0, 2.0, "clip about the pilot's own compass, not the GNSS heading: 1 = once the watches cut the clip, 2 = always, 0 = never"),
+        "gain_clip_deg": (20.0, "deg", 0.0, 90.0, "once the pilot's rudder gain is learnt at or above gain_clip_min: the straight's clip this / gain, about the pilot's compass (0 = off)"),
+        "gain_clip_min": (1.6, "deg/deg", 0.3, 5.0, "... the gain (rudder deg per deg of its course error) from which that clip applies"),
     }
 
     def __init__(self, **params):
@@ -256,6 +258,9 @@ class LosLaw:
         # keeps this object's attribute table small): the boat's, so it outlives reset()
         self.turns = TurnWatch()
         self.tight = Tighten()
+        # the pilot's own rudder gain, learnt from its reports (nav/pilotgain.py): the boat's, so
+        # it outlives reset(); made on the first report (its model bank costs heap)
+        self.gain = None
         self.reset()
 
     def configure(self, params):
@@ -530,12 +535,17 @@ class LosLaw:
         # About the GNSS heading instead, a clipped command follows the true heading, and the
         # pilot's lagging compass turns that into rate feedback of the wrong sign (kp x lag
         # beyond its own kd: a swing that grows; docs/NAVIGATION.md "Eleventh round")
+        # a pilot whose gain is high gets the clip its gain allows (gain_clip_deg / gain, on
+        # straights), in its own frame (docs/NAVIGATION.md "Twelfth round")
+        g_clip = self.gain.clip_deg if self.gain is not None else 0.0
         h_ref = fix.heading_deg
         if (self.pilot_heading_deg is not None and self.clip_pilot_frame > 0.0
-                and (self.clip_pilot_frame >= 2.0 or self.clip_scale < 1.0)):
+                and (self.clip_pilot_frame >= 2.0 or self.clip_scale < 1.0 or g_clip > 0.0)):
             h_ref = self.pilot_heading_deg
         rel = wrap180(cmd - h_ref)
         lim = self.clip_deg * self.clip_scale if arc_r == 0.0 else self.clip_deg  # turns: as set
+        if g_clip > 0.0 and arc_r == 0.0 and g_clip < lim:
+            lim = g_clip
         if self.adapt_clip_back > 0.0 and arc_r == 0.0 and self.clip_scale < 1.0 and y * chi_rad > 0.0:
             # moving away from the path under a clip the watches cut: the pilot may still be asked
             # for the course parallel to the path, so a slow turn cannot carry the boat 20 m off
@@ -707,6 +717,37 @@ class LosLaw:
             return ""  # logged when the lead moves by 0.1 s
         return "rudder moves at %.1f deg/s (stop %.0f deg): preview %.1f s" % (
             tw.ram_dps, tw.stop_deg, self.preview_s + tw.lead_s)
+
+    def pilot_status(self, t_ms, compass_deg, course_deg, rudder_deg, deadband_deg):
+        """Each new pilot status while the pilot steers (AUTO or the trial): its compass, locked
+        course and rudder (deg), its deadband as configured. Feeds the gain estimate
+        (nav/pilotgain.py); once it is sure of a gain at or above gain_clip_min the straight's clip
+        becomes gain_clip_deg / gain (kept for the boat; updated when the estimate moves by 10 %).
+        Returns a note or ""."""
+        if self.gain_clip_deg <= 0.0 or compass_deg is None or course_deg is None or rudder_deg is None:
+            return ""
+        pg = self.gain
+        if pg is None:
+            from trackpilot.nav.pilotgain import PilotGain
+
+            pg = self.gain = PilotGain()
+        tw = self.turns
+        trusted = tw.ram_dps > 0.0 and tw.stop_deg >= RAM_TRUST_DEG
+        ram = tw.ram_dps if trusted else self.ram_ref_dps
+        stop = tw.stop_deg if trusted else self.adapt_stop_deg + 3.0
+        if not pg.step(t_ms, compass_deg, course_deg, rudder_deg, deadband_deg, ram, stop):
+            return ""
+        g = pg.gain  # 0.0 while not sure
+        if g < self.gain_clip_min and pg.clip_deg == 0.0:
+            return ""
+        if g <= 0.0 or (pg.clip_deg > 0.0 and 0.9 * pg.told < g < 1.1 * pg.told):
+            return ""
+        if g < self.gain_clip_min:
+            g = self.gain_clip_min  # kept for the boat: a high gain once seen stays clipped
+        pg.told = g
+        pg.clip_deg = self.gain_clip_deg / g
+        return "the pilot's gain %.2f deg/deg (damping ~%.1f s; %d reports, %.1f deg RMS): clip %.1f deg about its compass" % (
+            pg.gain, pg.damping_s, pg.scored, pg.rms_deg, pg.clip_deg)
 
     def _add_note(self, text):
         """Add text to this step's note (the swing watch, the overshoot and the turn watch may
