@@ -61,6 +61,8 @@ def fit_boat(row, out, params):
     row["truth"]["rudder_lag_s"] = params["boat"]["rudder_lag_s"]
     row["fit"]["rudder_lag_s"] = n["rudder_lag_s"]
     row["truth"]["radius_m"] = truth["length_m"] / (truth["k_prime"] * ci["rudder_deg"] * math.pi / 180.0)
+    row["truth"]["pilot_gain"] = params["pilot"]["kp_rudder_per_deg"]
+    row["fit"]["pilot_gain"] = fit["pilot_gain"]["gain"]  # 0.0: not sure
     row["refusals"] = fit["problems"]
     _more_truth(row, out, params, fit)
     (Path(out) / "tune_config.json").write_text(json.dumps(fit["config"], indent=1))
@@ -160,6 +162,12 @@ def table(rows):
         lines.append("%-14s |error| median %.3g%s, p90 %.3g%s, worst %.3g%s; within %g%s: %d/%d" % (
             key, e[len(e) // 2] * k, unit, e[min(len(e) - 1, int(0.9 * len(e)))] * k, unit, e[-1] * k, unit,
             goal * k, unit, sum(1 for x in e if x <= goal), len(e)))
+    sure = [r for r in ok if r["fit"].get("pilot_gain", 0.0) > 0.0]
+    if sure:
+        e = sorted(abs(r["fit"]["pilot_gain"] / r["truth"]["pilot_gain"] - 1.0) for r in sure)
+        lines.append("pilot_gain     |error| median %.3g%%, p90 %.3g%%, worst %.3g%%; within 15%%: %d/%d (sure on %d of %d)" % (
+            100 * e[len(e) // 2], 100 * e[min(len(e) - 1, int(0.9 * len(e)))], 100 * e[-1],
+            sum(1 for x in e if x <= 0.15), len(e), len(sure), len(ok)))
     dur = [r["trial_s"] for r in ok]
     lines.append("trial duration: %.0f-%.0f s" % (min(dur), max(dur)))
     # is the stated uncertainty honest: |error| <= 2 sigma; and what tune accepts

@@ -1015,6 +1015,58 @@ def fit_steps(trial):
     return {"by_rpm": out, "_plot": curves}
 
 
+def pilot_statuses(trial):
+    """The pilot's statuses (0x84) in the trial's control records: a new one wherever the
+    status age falls or its compass, locked course or rudder changed. Rows of (t ms, compass,
+    locked course, rudder), t when the status came."""
+    a = trial["a"]
+    out = []
+    last = None
+    prev_age = None
+    for t, c, lk, r, age in zip(a["t"], a["compass"], a["locked"], a["rudder"], a["compass_age_ms"]):
+        key = (c, lk, r)
+        fresh = age >= 0 and prev_age is not None and age < prev_age
+        prev_age = age
+        if key == last and not fresh:
+            continue
+        last = key
+        t_ms = int(round(t * 1000.0 - (age if age >= 0 else 0)))
+        if out and t_ms <= out[-1][0]:
+            continue
+        out.append((t_ms, float(c), float(lk), float(r)))
+    return out
+
+
+def fit_pilot_gain(trial, deadband_deg=1.0):
+    """The pilot's own rudder gain (deg of rudder per deg of course error) from its reports over
+    the trial, by the firmware's own estimate (nav/pilotgain.py: a bank of pilot models, the ram
+    at the speed measured here). gain 0.0: not sure (the models two gain steps away predict the
+    rudder nearly as well)."""
+    from trackpilot_tools.sim.runner import _fw_import
+
+    _fw_import()
+    from trackpilot.nav import pilotgain
+
+    st = pilot_statuses(trial)
+    if len(st) < 20:
+        return {"gain": 0.0, "reports": len(st), "why": "too few pilot statuses"}
+    rt = np.array([x[0] for x in st]) / 1000.0
+    rud = np.array([x[3] for x in st])
+    ram = ram_rate_dps(rt, rud)
+    if not math.isfinite(ram):
+        ram = 10.0
+    stop = float(np.max(np.abs(rud)))
+    stop = stop if stop >= 20.0 else 30.0
+    est = pilotgain.PilotGain()
+    for t_ms, c, lk, r in st:
+        est.step(t_ms, c, lk, r, deadband_deg, ram, stop)
+    if est.informative >= pilotgain.NEED_REPORTS:
+        est._estimate()
+    return {"gain": float(est.gain), "damping_s": float(est.damping_s), "separation": float(est.separation),
+            "rms_deg": float(est.rms_deg), "reports": est.scored, "informative": est.informative,
+            "ram_dps": float(ram), "stop_deg": stop}
+
+
 def fit_zigzag(trial):
     """Overshoot angles of each zig-zag (deg beyond the switching heading), as IMO reports them."""
     a = trial["a"]
@@ -1116,7 +1168,7 @@ def guidance_keys(tau_s, tau_sd_s):
     return keys, margins
 
 
-def derive_guidance(nomoto, circle, steps, speed_map):
+def derive_guidance(nomoto, circle, steps, speed_map, pilot_gain=None):
     """Settings for the firmware's configuration from the fits. Returns (config partial, notes)."""
     # the response at the lowest RPM: the slowest, where the xte loop is least damped (the law
     # scales the lookahead with speed, lookahead = gain * U * heading_tc_s)
@@ -1133,6 +1185,9 @@ def derive_guidance(nomoto, circle, steps, speed_map):
     R = round(min(100.0, max(2.0, R)), 1)
     guidance = {"law": "los"}
     guidance.update(keys)
+    if pilot_gain and pilot_gain.get("gain", 0.0) > 0.0:
+        # the law clips a high gain from the first engage (docs/NAVIGATION.md "Twelfth round")
+        guidance["los_pilot_gain"] = round(pilot_gain["gain"], 2)
     cfg = {
         "boat": {"min_turn_radius_m": R},  # boat.min_turn_radius_m sets the law's corner radius
         "guidance": guidance,
@@ -1146,7 +1201,7 @@ def derive_guidance(nomoto, circle, steps, speed_map):
     return cfg, notes
 
 
-def sim_params(nomoto, compass, speed_map, rpm_max=1500):
+def sim_params(nomoto, compass, speed_map, pilot_gain=None, rpm_max=1500):
     """The fitted boat as simulator parameters (boat_params.json's names), for `sim --boat`."""
     rp = speed_map["rpm"]
     sp = speed_map["speed_mps"]
@@ -1155,6 +1210,11 @@ def sim_params(nomoto, compass, speed_map, rpm_max=1500):
     pts = [[0, 0.0]] + [[int(r), round(s, 3)] for r, s in zip(rp, sp)]
     if rp[-1] < rpm_max:
         pts.append([rpm_max, round((rpm_max - off) / k, 3)])
+    pilot = {}
+    if pilot_gain and pilot_gain.get("gain", 0.0) > 0.0:
+        # the pilot's own loop as far as the trial shows it (its damping is not identified)
+        pilot = {"kp_rudder_per_deg": round(pilot_gain["gain"], 3),
+                 "rudder_rate_degps": round(pilot_gain["ram_dps"], 2)}
     return {
         "boat": {"k_prime": round(nomoto["k_prime"], 4), "t_prime": round(nomoto["t_prime"], 4),
                  "rudder_lag_s": round(nomoto["rudder_lag_s"], 3), "length_m": nomoto["length_m"],
@@ -1162,7 +1222,7 @@ def sim_params(nomoto, compass, speed_map, rpm_max=1500):
         "pilot": {"compass_lag_s": round(compass["lag_s"], 3),
                   "compass_offset_deg": round(compass["offset_deg"], 2),
                   "compass_dev_sin_deg": round(compass["dev_sin_deg"], 2),
-                  "compass_dev_cos_deg": round(compass["dev_cos_deg"], 2)},
+                  "compass_dev_cos_deg": round(compass["dev_cos_deg"], 2), **pilot},
     }
 
 
@@ -1295,12 +1355,13 @@ def fit_all(d, length_m=5.0, gnss_latency_s=0.075):
     circ = fit_circle(tr, u, nom)
     steps = fit_steps(tr)
     zz = fit_zigzag(tr)
+    pg = fit_pilot_gain(tr)
     fit = {"trial": {"start_s": tr["t0"], "duration_s": tr["t1"] - tr["t0"],
                      "manoeuvres": [(k, round(t0 - tr["t0"], 1), round(t1 - tr["t0"], 1)) for k, t0, t1, _ in tr["segments"]]},
            "current": cur, "speed_map": sm, "compass": comp, "nomoto": nom, "circle": circ,
-           "steps": steps, "zigzag": zz, "current_drift": drift, "_trial": tr, "_u": u}
+           "steps": steps, "zigzag": zz, "pilot_gain": pg, "current_drift": drift, "_trial": tr, "_u": u}
     fit["problems"] = uncertainty_problems(fit)
     fit["warnings"] = warnings(fit)
-    fit["config"], fit["margins"] = derive_guidance(nom, circ, steps, sm)
-    fit["sim_params"] = sim_params(nom, comp, sm)
+    fit["config"], fit["margins"] = derive_guidance(nom, circ, steps, sm, pg)
+    fit["sim_params"] = sim_params(nom, comp, sm, pg)
     return fit

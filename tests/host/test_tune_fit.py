@@ -346,3 +346,53 @@ def test_sweep_recommends_tuned_only_when_no_worse():
     assert S.recommend({"tuned": summ(0.2, 0.4, 1, 0), "default": summ(0.3, 0.6, 0, 0)})[0] == "default"
     assert S.recommend({"tuned": summ(0.2, 0.4, 0, 1), "default": summ(0.3, 0.6, 0, 0)})[0] == "default"
     assert "| tuned | 4 |" in S.table_md({"tuned": summ(0.3, 0.5, 0, 0)})
+
+
+def _pilot_trial(gain, damping_s, ram_dps=9.0, deadband_deg=1.0, steps=(10, -10, 20, -20, 10, -10, 20, -20),
+                 every_s=15.0, seed=0):
+    """The trial's arrays as the log gives them: a P-D pilot (deadband, a rate-limited ram with a
+    1-deg deadband) steering a Nomoto boat on its lagging compass, its locked course stepped every
+    every_s; statuses every 0.5 s in whole degrees, control records at 5 Hz with the status age."""
+    rng = np.random.default_rng(seed)
+    dt = 0.05
+    n = int((len(steps) + 1) * every_s / dt)
+    heading = compass = rudder = yaw = rate_f = course = 0.0
+    st = (0.0, 0.0, 0.0, 0.0)  # the last status: t, compass, course, rudder
+    rows = []
+    for i in range(n):
+        t = i * dt
+        k = int(t / every_s)
+        if 0 < k <= len(steps) and abs(t - k * every_s) < dt / 2:
+            course += steps[k - 1]
+        yaw += (0.4 * rudder - yaw) * dt / 1.5
+        heading += yaw * dt + rng.normal(0.0, 0.02)
+        old = compass
+        compass += (heading - compass) * dt / 0.5
+        rate_f += ((compass - old) / dt - rate_f) * dt / 0.5
+        e = course - compass
+        ee = 0.0 if abs(e) <= deadband_deg else e - math.copysign(deadband_deg, e)
+        cmd = max(-30.0, min(30.0, gain * ee - damping_s * rate_f))
+        if abs(cmd - rudder) > 1.0:
+            rudder += max(-ram_dps * dt, min(ram_dps * dt, cmd - rudder))
+        if i % 10 == 0:
+            st = (t, float(round(compass)) % 360.0, course % 360.0, float(round(rudder)))
+        if i % 4 == 0:
+            rows.append((t, st[1], st[2], st[3], int(round((t - st[0]) * 1000))))
+    a = {k: np.array(v) for k, v in zip(("t", "compass", "locked", "rudder", "compass_age_ms"), zip(*rows))}
+    return {"a": a}
+
+
+def test_pilot_gain_from_its_reports():
+    """Within 15 % where the law uses it (a high gain); a low gain with a high damping reads low
+    (gain and damping trade, and the damping is not identified): within 20 %."""
+    for gain, damping_s, ram, tol in ((0.9, 1.5, 9.0, 0.2), (1.5, 1.0, 7.0, 0.15), (2.3, 0.8, 12.0, 0.15),
+                                      (2.0, 1.8, 6.0, 0.15)):
+        pg = F.fit_pilot_gain(_pilot_trial(gain, damping_s, ram))
+        assert pg["gain"] > 0.0, pg
+        assert abs(pg["gain"] / gain - 1.0) <= tol, (gain, pg)
+        assert abs(pg["ram_dps"] / ram - 1.0) <= 0.2, (ram, pg)
+
+
+def test_pilot_gain_not_claimed_without_large_errors():
+    pg = F.fit_pilot_gain(_pilot_trial(2.0, 1.0, steps=(2, -2, 2, -2)))
+    assert pg["gain"] == 0.0 and pg["informative"] == 0, pg

@@ -113,3 +113,15 @@ def test_off_makes_nothing():
     pg, notes = _sail(2.2, 0.8, law=law)
     t.true(pg is None)
     t.eq(notes, [])
+
+
+def test_a_measured_gain_clips_from_the_start():
+    t.eq(LosLaw().gain_clip(), 0.0)
+    t.eq(LosLaw(pilot_gain=1.2).gain_clip(), 0.0)  # below gain_clip_min
+    t.near(LosLaw(pilot_gain=2.0).gain_clip(), 10.0, 1e-9)
+    t.eq(LosLaw(pilot_gain=2.0, gain_clip_deg=0.0).gain_clip(), 0.0)
+    law = LosLaw(pilot_gain=1.7)
+    pg, _ = _sail(2.6, 1.8, ram_dps=6.0, law=law)  # the learnt gain takes over once sure
+    t.true(pg.clip_deg > 0.0)
+    t.near(law.gain_clip(), 20.0 / pg.told, 1e-9)
+    t.true(law.gain_clip() < 20.0 / 1.7)

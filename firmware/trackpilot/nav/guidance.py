@@ -229,6 +229,7 @@ class LosLaw:
         "clip_pilot_frame": (1.0, "1", 0.0, 2.0, "clip about the pilot's own compass, not the GNSS heading: 1 = once the watches cut the clip, 2 = always, 0 = never"),
         "gain_clip_deg": (20.0, "deg", 0.0, 90.0, "once the pilot's rudder gain is learnt at or above gain_clip_min: the straight's clip this / gain, about the pilot's compass (0 = off)"),
         "gain_clip_min": (1.6, "deg/deg", 0.3, 5.0, "... the gain (rudder deg per deg of its course error) from which that clip applies"),
+        "pilot_gain": (0.0, "deg/deg", 0.0, 5.0, "the pilot's rudder gain as measured (trackpilot tune): its clip from the first engage, until the law learns its own (0 = not known)"),
     }
 
     def __init__(self, **params):
@@ -537,7 +538,7 @@ class LosLaw:
         # beyond its own kd: a swing that grows; docs/NAVIGATION.md "Eleventh round")
         # a pilot whose gain is high gets the clip its gain allows (gain_clip_deg / gain, on
         # straights), in its own frame (docs/NAVIGATION.md "Twelfth round")
-        g_clip = self.gain.clip_deg if self.gain is not None else 0.0
+        g_clip = self.gain_clip()
         h_ref = fix.heading_deg
         if (self.pilot_heading_deg is not None and self.clip_pilot_frame > 0.0
                 and (self.clip_pilot_frame >= 2.0 or self.clip_scale < 1.0 or g_clip > 0.0)):
@@ -717,6 +718,16 @@ class LosLaw:
             return ""  # logged when the lead moves by 0.1 s
         return "rudder moves at %.1f deg/s (stop %.0f deg): preview %.1f s" % (
             tw.ram_dps, tw.stop_deg, self.preview_s + tw.lead_s)
+
+    def gain_clip(self):
+        """The straight's clip from the pilot's gain (deg; 0.0: none): the learnt gain's once it
+        set one, else the measured gain's (pilot_gain, from the commissioning trial)."""
+        pg = self.gain
+        if pg is not None and pg.clip_deg > 0.0:
+            return pg.clip_deg
+        if self.gain_clip_deg > 0.0 and self.pilot_gain >= self.gain_clip_min:
+            return self.gain_clip_deg / self.pilot_gain
+        return 0.0
 
     def pilot_status(self, t_ms, compass_deg, course_deg, rudder_deg, deadband_deg):
         """Each new pilot status while the pilot steers (AUTO or the trial): its compass, locked
