@@ -193,6 +193,17 @@ def report_text(fit, plots, args):
             _pm(s["delay_s"], s["delay_s_sd"], "%.2f"), _pm(s["tc_s"], s["tc_s_sd"], "%.2f"),
             _pm(100 * s["overshoot"], 100 * s["overshoot_sd"] if math.isfinite(s["overshoot_sd"]) else None, "%.0f"),
             _pm(s["gain"], s["gain_sd"], "%.2f"), _pm(s["steady_err_deg"], s["steady_err_deg_sd"], "%.1f")))
+    pg = fit.get("pilot_gain") or {}
+    if pg.get("gain", 0.0) > 0.0:
+        L.append("\nThe pilot's own rudder gain (its reports, the firmware's estimate nav/pilotgain.py): "
+                 "%.2f deg of rudder per deg of course error (ram %.1f deg/s; %d reports, %.1f deg RMS, the "
+                 "models two gain steps away %.2f x worse; its damping is not identified), written as "
+                 "guidance.los_pilot_gain: the law clips a gain of guidance.los_gain_clip_min or more "
+                 "(1.6 by default) from the first engage." % (
+                     pg["gain"], pg["ram_dps"], pg["reports"], pg["rms_deg"], pg["separation"]))
+    elif pg:
+        L.append("\nThe pilot's own rudder gain: not identified from this trial (%s)." % (
+            pg.get("why") or "%d of its reports with a large error, models too alike" % pg.get("informative", 0)))
     for rpm, peaks in sorted(zz["overshoot_deg"].items()):
         L.append("\nZig-zag at %d RPM, overshoot: %s deg (mean %.1f)." % (
             rpm, ", ".join("%.1f" % x for x in peaks), zz["mean_overshoot_deg"][rpm]))

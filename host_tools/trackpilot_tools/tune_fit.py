@@ -1015,15 +1015,24 @@ def fit_steps(trial):
     return {"by_rpm": out, "_plot": curves}
 
 
-def pilot_statuses(trial):
-    """The pilot's statuses (0x84) in the trial's control records: a new one wherever the
-    status age falls or its compass, locked course or rudder changed. Rows of (t ms, compass,
-    locked course, rudder), t when the status came."""
+def pilot_statuses(trial, kinds=("step", "zigzag")):
+    """The pilot's statuses (0x84) in the trial's control records during its course steps and
+    zig-zags (the turn-backs and the circles keep the locked course far ahead, the rudder at its
+    stop): a new one wherever the status age falls or its compass, locked course or rudder
+    changed. Rows of (t ms, compass, locked course, rudder), t when the status came."""
     a = trial["a"]
+    segs = trial.get("segments")
+    if segs is not None:
+        m = np.zeros(len(a["t"]), dtype=bool)
+        for kind in kinds:
+            for t0, t1, _ in segments(trial, kind):
+                m |= _sel(a, t0, t1)
+    else:
+        m = np.ones(len(a["t"]), dtype=bool)  # a bare record set: all of it
     out = []
     last = None
     prev_age = None
-    for t, c, lk, r, age in zip(a["t"], a["compass"], a["locked"], a["rudder"], a["compass_age_ms"]):
+    for t, c, lk, r, age in zip(a["t"][m], a["compass"][m], a["locked"][m], a["rudder"][m], a["compass_age_ms"][m]):
         key = (c, lk, r)
         fresh = age >= 0 and prev_age is not None and age < prev_age
         prev_age = age

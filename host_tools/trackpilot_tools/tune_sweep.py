@@ -4,8 +4,10 @@ robust bench's engine (bench_robust.run_job on Dask), and which of the two to re
 
 What is drawn (per boat, from its seed):
 - identified, around the fit (normal, 1 sigma): K', T', the rudder dead time (as the flow lag),
-  the compass lag; the compass offset/deviation, the RPM -> speed map and the current as fitted;
-- not identified by the trial (the ST2000+'s gains, deadband, ram speed, key delay, the compass's
+  the compass lag; the pilot's rudder gain when the trial identified it (1 sigma taken as 10 %:
+  its error over simulated trials, docs/COMMISSIONING.md), with its ram speed as measured; the
+  compass offset/deviation, the RPM -> speed map and the current as fitted;
+- not identified by the trial (the ST2000+'s damping, deadband, ram speed (unless measured), key delay, the compass's
   noise, wind, waves, GNSS latency): drawn from the robust bench's spreads (sim/boat_params.json),
   so the sweep also covers what the trial cannot see; but the pilot only where its simulated
   course steps on the drawn boat reach 63 % within T63_TOLERANCE of the times measured in the
@@ -80,6 +82,10 @@ def _draw_one(fit, seed, attempt):
     p["boat"]["rudder_lag_s"] = around(nom["rudder_lag_s"], nom["rudder_lag_sd_s"], 0.0)
     p["boat"]["speed_map_scale"] = 1.0
     p["pilot"]["compass_lag_s"] = around(comp["lag_s"], comp["lag_sd_s"], 0.05)
+    kp = sp.get("pilot", {}).get("kp_rudder_per_deg")
+    if kp:
+        p["pilot"]["kp_rudder_per_deg"] = around(kp, 0.1 * kp, 0.2)
+        flat["pilot.kp_rudder_per_deg"] = p["pilot"]["kp_rudder_per_deg"]
     p["water"]["current_mps"] = cur["speed_mps"]
     p["water"]["current_dir_deg"] = cur["to_deg"]
     for key, val in (("boat.k_prime", p["boat"]["k_prime"]), ("boat.t_prime", p["boat"]["t_prime"]),

@@ -48,6 +48,8 @@ def test_trial_tune_sim(trial_run, tmp_path, capsys):
     assert fit["nomoto"]["t_prime"] == pytest.approx(truth["boat"]["t_prime"], rel=0.15)
     assert fit["compass"]["lag_s"] == pytest.approx(truth["pilot"]["compass_lag_s"], abs=0.15)
     assert fit["trial"]["duration_s"] <= 600
+    # the pilot's own gain from its reports (nav/pilotgain.py), into the simulator's pilot
+    assert fit["pilot_gain"]["gain"] == pytest.approx(truth["pilot"]["kp_rudder_per_deg"], rel=0.2), fit["pilot_gain"]
     cfg = json.loads((tmp_path / "tune" / "config.json").read_text())
     assert cfg["boat"]["min_turn_radius_m"] > 5
     # the simulator sails the fitted boat with the tuned configuration
@@ -58,6 +60,7 @@ def test_trial_tune_sim(trial_run, tmp_path, capsys):
     params = json.loads((tmp_path / "sim" / "sim_params.json").read_text())
     assert params["boat"]["k_prime"] == pytest.approx(fit["nomoto"]["k_prime"], rel=1e-3)
     assert params["pilot"]["compass_lag_s"] == pytest.approx(fit["compass"]["lag_s"], abs=1e-3)
+    assert params["pilot"]["kp_rudder_per_deg"] == pytest.approx(fit["pilot_gain"]["gain"], rel=1e-3)
     summ = json.loads((tmp_path / "sim" / "summary.json").read_text())
     text = json.dumps(summ)
     assert "AUTO" in text
@@ -135,7 +138,7 @@ def test_tune_sweep_around_the_fit(trial_run, tmp_path, capsys):
         assert cfg["guidance"] == {"law": "los"} and cfg["boat"] == tuned["boat"]
     assert name == S.recommend(sweep["summary"])[0]
     assert "Recommended: %s" % name in (out / "report.md").read_text()
-    # draws: within a few sigma of the fit, the unidentified pilot from the spreads
+    # draws: within a few sigma of the fit (the pilot's gain too, 10 %), the rest of the pilot from the spreads
     boats = S.draw_boats(fit, 3)
     n = fit["nomoto"]
     for _seed, p, _flat in boats:
