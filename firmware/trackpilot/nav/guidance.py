@@ -166,6 +166,9 @@ class LosLaw:
     Once the boat has held the path on a straight (tight_wait_s within tight_band_m), lookahead
     and lead x tight_scale; back at once and until the next engage beyond tight_exit_m or on an
     act of the swing watch (nav/tighten.py; "Tenth round").
+    A pilot whose own rudder gain is high (learnt from its reports, nav/pilotgain.py, or measured
+    by `trackpilot tune`: pilot_gain) gets the straight's clip gain_clip_deg / gain about its
+    compass, so its rudder stays off the stop ("Twelfth round").
     Defaults: docs/NAVIGATION.md "Tuning".
     Corners are arcs of radius round_factor * turn_radius_m, shrunk where legs are too short
     (never below turn_radius_m / 2; sharper corners and reversals >= 170 deg are not rounded).
