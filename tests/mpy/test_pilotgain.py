@@ -125,3 +125,16 @@ def test_a_measured_gain_clips_from_the_start():
     t.true(pg.clip_deg > 0.0)
     t.near(law.gain_clip(), 20.0 / pg.told, 1e-9)
     t.true(law.gain_clip() < 20.0 / 1.7)
+
+
+def test_a_lower_estimate_later_keeps_the_clip_and_says_it_once():
+    law = LosLaw()
+    _, notes = _sail(2.2, 0.8, ram_dps=10.0, law=law)
+    pg = law.gain
+    t.true(pg.clip_deg > 0.0)
+    before = len(notes)
+    # the same pilot turned down by a person: the estimate falls below gain_clip_min
+    _, later = _sail(1.0, 1.5, ram_dps=10.0, law=law, seconds=400.0)
+    t.true(pg.clip_deg > 0.0)
+    t.true(abs(pg.clip_deg - 20.0 / 1.6) < 1e-6 or pg.clip_deg < 20.0 / 1.6, pg.clip_deg)
+    t.true(len(later) <= 2, later)

@@ -733,7 +733,7 @@ class LosLaw:
         return 0.0
 
     def pilot_status(self, t_ms, compass_deg, course_deg, rudder_deg, deadband_deg):
-        """Each new pilot status while the pilot steers (AUTO or the trial): its compass, locked
+        """Each new pilot status while the pilot steers for us in AUTO: its compass, locked
         course and rudder (deg), its deadband as configured. Feeds the gain estimate
         (nav/pilotgain.py); once it is sure of a gain at or above gain_clip_min the straight's clip
         becomes gain_clip_deg / gain (kept for the boat; updated when the estimate moves by 10 %).
@@ -752,12 +752,12 @@ class LosLaw:
         if not pg.step(t_ms, compass_deg, course_deg, rudder_deg, deadband_deg, ram, stop):
             return ""
         g = pg.gain  # 0.0 while not sure
-        if g < self.gain_clip_min and pg.clip_deg == 0.0:
-            return ""
-        if g <= 0.0 or (pg.clip_deg > 0.0 and 0.9 * pg.told < g < 1.1 * pg.told):
+        if g <= 0.0 or (g < self.gain_clip_min and pg.clip_deg == 0.0):
             return ""
         if g < self.gain_clip_min:
             g = self.gain_clip_min  # kept for the boat: a high gain once seen stays clipped
+        if pg.clip_deg > 0.0 and 0.9 * pg.told < g < 1.1 * pg.told:
+            return ""  # said when the gain moves by 10 %
         pg.told = g
         pg.clip_deg = self.gain_clip_deg / g
         return "the pilot's gain %.2f deg/deg (damping ~%.1f s; %d reports, %.1f deg RMS): clip %.1f deg about its compass" % (
