@@ -197,9 +197,10 @@ def report_text(fit, plots, args):
     if pg.get("gain", 0.0) > 0.0:
         L.append("\nThe pilot's own rudder gain (its reports, the firmware's estimate nav/pilotgain.py): "
                  "%.2f deg of rudder per deg of course error (ram %.1f deg/s; %d reports, %.1f deg RMS, the "
-                 "models two gain steps away %.2f x worse; its damping is not identified), written as "
-                 "guidance.los_pilot_gain: the law clips a gain of guidance.los_gain_clip_min or more "
-                 "(1.6 by default) from the first engage." % (
+                 "models two gain steps away %.2f x worse; its damping is not identified). `sim --boat` "
+                 "sails it; it is not written into the configuration: the law learns the gain on the "
+                 "water and clips a high one itself (guidance.los_pilot_gain would clip from the first "
+                 "engage, measured worse on simulated boats: docs/COMMISSIONING.md)." % (
                      pg["gain"], pg["ram_dps"], pg["reports"], pg["rms_deg"], pg["separation"]))
     elif pg:
         L.append("\nThe pilot's own rudder gain: not identified from this trial (%s)." % (
