@@ -1074,9 +1074,9 @@ def fit_pilot_gain(trial):
     pilot models), the ram at the speed its one-way moves show. Offline there is time to run the
     bank for each of a few pilot deadbands; the run whose best model predicts the rudder best is
     kept (measured on 40 simulated trials: sure on 38 instead of 27 with the firmware's one
-    deadband and the single-interval ram speed, docs/COMMISSIONING.md). gain 0.0: not sure (the models two gain steps away predict the rudder
-    nearly as well). The deadband and the damping found are nuisance parameters, not reported as
-    identified."""
+    deadband and the single-interval ram speed, docs/COMMISSIONING.md). gain 0.0: not sure (the
+    models two gain steps away predict the rudder nearly as well). The deadband and the damping
+    found are nuisance parameters, not identified."""
     from trackpilot_tools.sim.runner import _fw_import
 
     _fw_import()
@@ -1099,7 +1099,7 @@ def fit_pilot_gain(trial):
             est.step(t_ms, c, lk, r, db, ram, stop)
         if est.informative < pilotgain.NEED_REPORTS:
             continue
-        est._estimate()
+        est.estimate()
         if best is None or est.rms_deg < best[0].rms_deg:
             best = (est, db)
     if best is None:

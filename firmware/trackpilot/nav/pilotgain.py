@@ -134,10 +134,12 @@ class PilotGain:
             self.informative += 1
         if self.informative < NEED_REPORTS or self.scored % 5:
             return False
-        self._estimate()
+        self.estimate()
         return True
 
-    def _estimate(self):
+    def estimate(self):
+        """Compute the estimate from the sums now (step() does it every 5 scored reports once
+        NEED_REPORTS informative ones were seen; an offline caller may at the end)."""
         nd = len(DAMPINGS)
         sse = self._sse
         best = []  # per gain: the best damping's sum
