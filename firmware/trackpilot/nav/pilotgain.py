@@ -67,13 +67,12 @@ class PilotGain:
         self._t_ms = None
         self._compass = 0.0
         self._rate = 0.0
-        self._fresh = True
 
     def step(self, t_ms, compass_deg, course_deg, rudder_deg, deadband_deg, ram_dps, stop_deg):
         """One new pilot status while the pilot steers: its compass, locked course and rudder
         (deg), t_ms when it came; the pilot's deadband, the ram's rate (deg/s) and its stop (deg),
         as known. Returns True when the estimate is (re)computed."""
-        if self._t_ms is None or self._fresh:
+        if self._t_ms is None:
             dt_s = 0.0
         else:
             dt_s = ticks_diff(t_ms, self._t_ms) / 1000.0
@@ -85,7 +84,6 @@ class PilotGain:
             self._t_ms = t_ms
             self._compass = compass_deg
             self._rate = 0.0
-            self._fresh = False
             for i in range(n):
                 pred[i] = rud
             return False
