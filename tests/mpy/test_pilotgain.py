@@ -138,3 +138,21 @@ def test_a_lower_estimate_later_keeps_the_clip_and_says_it_once():
     t.true(pg.clip_deg > 0.0)
     t.true(abs(pg.clip_deg - 20.0 / 1.6) < 1e-6 or pg.clip_deg < 20.0 / 1.6, pg.clip_deg)
     t.true(len(later) <= 2, later)
+
+
+def test_a_pilot_that_reports_no_rudder_gets_no_clip():
+    """Whether the ST2000+ fills the rudder field of 0x84 is to be confirmed on the boat: a field
+    that stays 0 (or is missing: None) must never read as a high gain."""
+    law = LosLaw()
+    heading = 0.0
+    notes = []
+    for i in range(1200):  # 300 s of statuses, the course stepped +-20 deg every 15 s
+        course = 20.0 if (i // 60) % 2 else -20.0
+        heading += (course - heading) * 0.05
+        for rudder in (0.0, None):
+            note = law.pilot_status(i * 250, heading % 360.0, course % 360.0, rudder, 1.0)
+            if note:
+                notes.append(note)
+    t.eq(notes, [])
+    t.eq(law.gain_clip(), 0.0)
+    t.true(law.gain.gain < 1.6, law.gain.gain)
