@@ -313,6 +313,12 @@ def fit_speed_map(trial, u):
 # --------------------------------------------------------------------------- compass
 def compass_readings(a):
     """The pilot's compass/rudder at the time each was received (new readings only)."""
+    rt, idx = _reading_index(a)
+    return rt[idx], a["compass"][idx], a["rudder"][idx]
+
+
+def _reading_index(a):
+    """(receive times of every record's reading, indices of the records that carry a new one)."""
     age = a["compass_age_ms"]
     if not np.any(age >= 0):
         raise TuneError("the log has no compass timing (compass_age_ms): a firmware older than the "
@@ -326,8 +332,7 @@ def compass_readings(a):
         if last is None or rt[i] - last > 0.05:
             out.append(i)
             last = rt[i]
-    out = np.array(out, dtype=int)
-    return rt[out], a["compass"][out], a["rudder"][out]
+    return rt, np.array(out, dtype=int)
 
 
 def _lag_bank(tf, xf, taus):
@@ -1016,34 +1021,18 @@ def fit_steps(trial):
 
 
 def pilot_statuses(trial, kinds=("step", "zigzag")):
-    """The pilot's statuses (0x84) in the trial's control records during its course steps and
-    zig-zags (the turn-backs and the circles keep the locked course far ahead, the rudder at its
-    stop): a new one wherever the status age falls or its compass, locked course or rudder
-    changed. Rows of (t ms, compass, locked course, rudder), t when the status came."""
+    """The pilot's statuses (0x84) during the trial's course steps and zig-zags (the turn-backs
+    and the circles keep the locked course far ahead, the rudder at its stop), new readings only
+    (compass_readings'): rows of (t ms when it came, compass, locked course, rudder)."""
     a = trial["a"]
-    segs = trial.get("segments")
-    if segs is not None:
-        m = np.zeros(len(a["t"]), dtype=bool)
-        for kind in kinds:
-            for t0, t1, _ in segments(trial, kind):
-                m |= _sel(a, t0, t1)
-    else:
-        m = np.ones(len(a["t"]), dtype=bool)  # a bare record set: all of it
-    out = []
-    last = None
-    prev_age = None
-    for t, c, lk, r, age in zip(a["t"][m], a["compass"][m], a["locked"][m], a["rudder"][m], a["compass_age_ms"][m]):
-        key = (c, lk, r)
-        fresh = age >= 0 and prev_age is not None and age < prev_age
-        prev_age = age
-        if key == last and not fresh:
-            continue
-        last = key
-        t_ms = int(round(t * 1000.0 - (age if age >= 0 else 0)))
-        if out and t_ms <= out[-1][0]:
-            continue
-        out.append((t_ms, float(c), float(lk), float(r)))
-    return out
+    rt, idx = _reading_index(a)
+    m = np.zeros(len(a["t"]), dtype=bool)
+    for kind in kinds:
+        for t0, t1, _ in segments(trial, kind):
+            m |= _sel(a, t0, t1)
+    idx = idx[m[idx]]
+    return [(int(round(rt[i] * 1000.0)), float(a["compass"][i]), float(a["locked"][i]), float(a["rudder"][i]))
+            for i in idx]
 
 
 PILOT_DEADBANDS_DEG = (0.5, 1.0, 1.5, 2.0, 2.5)  # the pilot's deadband, tried (not identified)
@@ -1073,7 +1062,7 @@ def fit_pilot_gain(trial):
     the trial's steps and zig-zags, by the firmware's own estimate (nav/pilotgain.py: a bank of
     pilot models), the ram at the speed its one-way moves show. Offline there is time to run the
     bank for each of a few pilot deadbands; the run whose best model predicts the rudder best is
-    kept (measured on 40 simulated trials: sure on 38 instead of 27 with the firmware's one
+    kept (measured on 40 simulated trials: sure on 37 instead of 27 with the firmware's one
     deadband and the single-interval ram speed, docs/COMMISSIONING.md). gain 0.0: not sure (the
     models two gain steps away predict the rudder nearly as well). The deadband and the damping
     found are nuisance parameters, not identified."""

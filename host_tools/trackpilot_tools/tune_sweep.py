@@ -7,8 +7,9 @@ What is drawn (per boat, from its seed):
   the compass lag; the pilot's rudder gain when the trial identified it (1 sigma taken as 10 %:
   its error over simulated trials, docs/COMMISSIONING.md), with its ram speed as measured; the
   compass offset/deviation, the RPM -> speed map and the current as fitted;
-- not identified by the trial (the ST2000+'s damping, deadband, ram speed (unless measured), key delay, the compass's
-  noise, wind, waves, GNSS latency): drawn from the robust bench's spreads (sim/boat_params.json),
+- not identified by the trial (the ST2000+'s damping and deadband, its ram speed unless measured,
+  key delay, the compass's noise, wind, waves, GNSS latency): drawn from the robust bench's spreads
+  (sim/boat_params.json),
   so the sweep also covers what the trial cannot see; but the pilot only where its simulated
   course steps on the drawn boat reach 63 % within T63_TOLERANCE of the times measured in the
   trial (rejection: up to MAX_TRIES draws, else the closest), so every boat responds like the

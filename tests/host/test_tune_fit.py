@@ -379,7 +379,8 @@ def _pilot_trial(gain, damping_s, ram_dps=9.0, deadband_deg=1.0, steps=(10, -10,
         if i % 4 == 0:
             rows.append((t, st[1], st[2], st[3], int(round((t - st[0]) * 1000))))
     a = {k: np.array(v) for k, v in zip(("t", "compass", "locked", "rudder", "compass_age_ms"), zip(*rows))}
-    return {"a": a}
+    a["heading_ok"] = np.ones(len(a["t"]), bool)
+    return {"a": a, "segments": [("step", 0.0, float(a["t"][-1]), {})]}
 
 
 def test_pilot_gain_from_its_reports():

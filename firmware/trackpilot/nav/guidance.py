@@ -24,7 +24,7 @@ import math
 from trackpilot.compat import wrap180, wrap360
 from trackpilot.nav.swing import SwingWatch
 from trackpilot.nav.tighten import Tighten
-from trackpilot.nav.turnwatch import RAM_TRUST_DEG, TurnWatch
+from trackpilot.nav.turnwatch import TurnWatch
 
 _RAD = math.pi / 180.0
 _HALF_PI = math.pi * 0.5
@@ -166,9 +166,9 @@ class LosLaw:
     Once the boat has held the path on a straight (tight_wait_s within tight_band_m), lookahead
     and lead x tight_scale; back at once and until the next engage beyond tight_exit_m or on an
     act of the swing watch (nav/tighten.py; "Tenth round").
-    A pilot whose own rudder gain is high (learnt from its reports, nav/pilotgain.py, or measured
-    by `trackpilot tune`: pilot_gain) gets the straight's clip gain_clip_deg / gain about its
-    compass, so its rudder stays off the stop ("Twelfth round").
+    A pilot whose own rudder gain is high (learnt from its reports, nav/pilotgain.py; or set as
+    pilot_gain, off by default) gets the straight's clip gain_clip_deg / gain about its compass,
+    so its rudder stays off the stop ("Twelfth round").
     Defaults: docs/NAVIGATION.md "Tuning".
     Corners are arcs of radius round_factor * turn_radius_m, shrunk where legs are too short
     (never below turn_radius_m / 2; sharper corners and reversals >= 170 deg are not rounded).
@@ -232,7 +232,7 @@ class LosLaw:
         "clip_pilot_frame": (1.0, "1", 0.0, 2.0, "clip about the pilot's own compass, not the GNSS heading: 1 = once the watches cut the clip, 2 = always, 0 = never"),
         "gain_clip_deg": (20.0, "deg", 0.0, 90.0, "once the pilot's rudder gain is learnt at or above gain_clip_min: the straight's clip this / gain, about the pilot's compass (0 = off)"),
         "gain_clip_min": (1.6, "deg/deg", 0.3, 5.0, "... the gain (rudder deg per deg of its course error) from which that clip applies"),
-        "pilot_gain": (0.0, "deg/deg", 0.0, 5.0, "the pilot's rudder gain as measured (trackpilot tune): its clip from the first engage, until the law learns its own (0 = not known)"),
+        "pilot_gain": (0.0, "deg/deg", 0.0, 5.0, "the pilot's rudder gain as known (tune reports it, does not write it): its clip from the first engage, until the law learns its own (0 = not known; measured worse, docs/COMMISSIONING.md)"),
     }
 
     def __init__(self, **params):
@@ -746,7 +746,7 @@ class LosLaw:
 
             pg = self.gain = PilotGain()
         tw = self.turns
-        trusted = tw.ram_dps > 0.0 and tw.stop_deg >= RAM_TRUST_DEG
+        trusted = tw.ram_trusted()
         ram = tw.ram_dps if trusted else self.ram_ref_dps
         stop = tw.stop_deg if trusted else self.adapt_stop_deg + 3.0
         if not pg.step(t_ms, compass_deg, course_deg, rudder_deg, deadband_deg, ram, stop):

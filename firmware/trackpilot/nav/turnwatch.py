@@ -134,15 +134,19 @@ class TurnWatch:
             return 0
         return self._r[2 * (self._ri - 1 if self._ri > 0 else _RING - 1) + 1]
 
+    def ram_trusted(self):
+        """The ram's rate is known: a move was seen and the rudder has been driven RAM_TRUST_DEG."""
+        return self.ram_dps > 0.0 and self.stop_deg >= RAM_TRUST_DEG
+
     def set_lead(self, gain, ref_dps):
         """lead_s: the ram's delay beyond the one the preview was set for: gain x rudder needed (the
         largest rudder seen) x (1 / ram rate - 1 / ref_dps), 0 .. RAM_LEAD_MAX_S. Only once the
         rudder has been driven to RAM_TRUST_DEG: before that no move asked the ram for all it has
         (the nominal boat's gentle first minutes on the example loop read 6-7 deg/s of its 10)."""
-        ram = self.ram_dps
-        need = self.stop_deg
-        if gain <= 0.0 or ram <= 0.0 or need < RAM_TRUST_DEG:
+        if gain <= 0.0 or not self.ram_trusted():
             self.lead_s = 0.0
             return
+        ram = self.ram_dps
+        need = self.stop_deg
         v = gain * need * (1.0 / ram - 1.0 / ref_dps)
         self.lead_s = 0.0 if v < 0.0 else (RAM_LEAD_MAX_S if v > RAM_LEAD_MAX_S else v)
