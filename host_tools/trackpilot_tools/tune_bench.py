@@ -63,6 +63,9 @@ def fit_boat(row, out, params):
     row["truth"]["radius_m"] = truth["length_m"] / (truth["k_prime"] * ci["rudder_deg"] * math.pi / 180.0)
     row["truth"]["pilot_gain"] = params["pilot"]["kp_rudder_per_deg"]
     row["fit"]["pilot_gain"] = fit["pilot_gain"]["gain"]  # 0.0: not sure
+    row["truth"]["pilot_damping_s"] = params["pilot"]["kd_rudder_s"]
+    row["fit"]["pilot_damping_s"] = fit["pilot_gain"].get("damping_s", 0.0)
+    row["sd"]["pilot_gain"] = fit["pilot_gain"].get("gain_sd", float("inf"))
     row["refusals"] = fit["problems"]
     _more_truth(row, out, params, fit)
     (Path(out) / "tune_config.json").write_text(json.dumps(fit["config"], indent=1))
@@ -168,6 +171,16 @@ def table(rows):
         lines.append("pilot_gain     |error| median %.3g%%, p90 %.3g%%, worst %.3g%%; within 15%%: %d/%d (sure on %d of %d)" % (
             100 * e[len(e) // 2], 100 * e[min(len(e) - 1, int(0.9 * len(e)))], 100 * e[-1],
             sum(1 for x in e if x <= 0.15), len(e), len(sure), len(ok)))
+        cov = sum(1 for r in sure if abs(r["fit"]["pilot_gain"] - r["truth"]["pilot_gain"]) <= 2 * r["sd"]["pilot_gain"])
+        lines.append("pilot_gain     within 2 sigma of its stated uncertainty: %d/%d" % (cov, len(sure)))
+        e = sorted(abs(r["fit"]["pilot_damping_s"] / r["truth"]["pilot_damping_s"] - 1.0) for r in sure
+                   if "pilot_damping_s" in r["truth"])
+        if e:
+            lines.append("pilot_damping  |error| median %.3g%%, p90 %.3g%%, worst %.3g%%; within 15%%: %d/%d "
+                         "(the simulator's default 1.5 s would be within 15%% on %d)" % (
+                             100 * e[len(e) // 2], 100 * e[min(len(e) - 1, int(0.9 * len(e)))], 100 * e[-1],
+                             sum(1 for x in e if x <= 0.15), len(e),
+                             sum(1 for r in sure if abs(1.5 / r["truth"]["pilot_damping_s"] - 1.0) <= 0.15)))
     dur = [r["trial_s"] for r in ok]
     lines.append("trial duration: %.0f-%.0f s" % (min(dur), max(dur)))
     # is the stated uncertainty honest: |error| <= 2 sigma; and what tune accepts

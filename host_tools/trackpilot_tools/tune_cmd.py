@@ -195,16 +195,17 @@ def report_text(fit, plots, args):
             _pm(s["gain"], s["gain_sd"], "%.2f"), _pm(s["steady_err_deg"], s["steady_err_deg_sd"], "%.1f")))
     pg = fit.get("pilot_gain") or {}
     if pg.get("gain", 0.0) > 0.0:
-        L.append("\nThe pilot's own rudder gain (its reports, the firmware's estimate nav/pilotgain.py): "
-                 "%.2f deg of rudder per deg of course error (ram %.1f deg/s; %d reports, %.1f deg RMS, the "
-                 "models two gain steps away %.2f x worse; its damping is not identified). `sim --boat` "
-                 "sails it; it is not written into the configuration: the law learns the gain on the "
-                 "water and clips a high one itself (guidance.los_pilot_gain would clip from the first "
-                 "engage, measured worse on simulated boats: docs/COMMISSIONING.md)." % (
-                     pg["gain"], pg["ram_dps"], pg["reports"], pg["rms_deg"], pg["separation"]))
+        L.append("\nThe pilot's own loop (P-D models run between its reports, tune_fit.fit_pilot_gain): "
+                 "rudder gain %s deg per deg of course error, damping %s s (deg of rudder per deg/s of "
+                 "compass rate; on simulated trials within 15 %% on half, biased low), ram %.1f deg/s; "
+                 "%d reports, %.1f deg RMS; its deadband is not identified. `sim --boat` sails them; the "
+                 "gain is not written into the configuration: the law learns the gain on the water and "
+                 "clips a high one itself (guidance.los_pilot_gain would clip from the first engage, "
+                 "measured worse on simulated boats: docs/COMMISSIONING.md)." % (
+                     _pm(pg["gain"], pg["gain_sd"], "%.2f"), _pm(pg["damping_s"], pg["damping_sd_s"], "%.2f"),
+                     pg["ram_dps"], pg["scored"], pg["rms_deg"]))
     elif pg:
-        L.append("\nThe pilot's own rudder gain: not identified from this trial (%s)." % (
-            pg.get("why") or "%d of its reports with a large error, models too alike" % pg.get("informative", 0)))
+        L.append("\nThe pilot's own rudder gain: not identified from this trial (%s)." % pg.get("why", "?"))
     for rpm, peaks in sorted(zz["overshoot_deg"].items()):
         L.append("\nZig-zag at %d RPM, overshoot: %s deg (mean %.1f)." % (
             rpm, ", ".join("%.1f" % x for x in peaks), zz["mean_overshoot_deg"][rpm]))

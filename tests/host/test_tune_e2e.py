@@ -48,8 +48,9 @@ def test_trial_tune_sim(trial_run, tmp_path, capsys):
     assert fit["nomoto"]["t_prime"] == pytest.approx(truth["boat"]["t_prime"], rel=0.15)
     assert fit["compass"]["lag_s"] == pytest.approx(truth["pilot"]["compass_lag_s"], abs=0.15)
     assert fit["trial"]["duration_s"] <= 600
-    # the pilot's own gain from its reports (nav/pilotgain.py), into the simulator's pilot
-    assert fit["pilot_gain"]["gain"] == pytest.approx(truth["pilot"]["kp_rudder_per_deg"], rel=0.2), fit["pilot_gain"]
+    # the pilot's own loop from its reports (tune_fit.fit_pilot_gain), into the simulator's pilot
+    assert fit["pilot_gain"]["gain"] == pytest.approx(truth["pilot"]["kp_rudder_per_deg"], rel=0.15), fit["pilot_gain"]
+    assert fit["pilot_gain"]["damping_s"] == pytest.approx(truth["pilot"]["kd_rudder_s"], rel=0.5), fit["pilot_gain"]
     cfg = json.loads((tmp_path / "tune" / "config.json").read_text())
     assert cfg["boat"]["min_turn_radius_m"] > 5
     # the simulator sails the fitted boat with the tuned configuration
@@ -61,6 +62,7 @@ def test_trial_tune_sim(trial_run, tmp_path, capsys):
     assert params["boat"]["k_prime"] == pytest.approx(fit["nomoto"]["k_prime"], rel=1e-3)
     assert params["pilot"]["compass_lag_s"] == pytest.approx(fit["compass"]["lag_s"], abs=1e-3)
     assert params["pilot"]["kp_rudder_per_deg"] == pytest.approx(fit["pilot_gain"]["gain"], rel=1e-3)
+    assert params["pilot"]["kd_rudder_s"] == pytest.approx(fit["pilot_gain"]["damping_s"], rel=1e-3)
     summ = json.loads((tmp_path / "sim" / "summary.json").read_text())
     text = json.dumps(summ)
     assert "AUTO" in text

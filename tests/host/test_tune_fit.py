@@ -351,8 +351,9 @@ def test_sweep_recommends_tuned_only_when_no_worse():
 def _pilot_trial(gain, damping_s, ram_dps=9.0, deadband_deg=1.0, steps=(10, -10, 20, -20, 10, -10, 20, -20),
                  every_s=15.0, seed=0):
     """The trial's arrays as the log gives them: a P-D pilot (deadband, a rate-limited ram with a
-    1-deg deadband) steering a Nomoto boat on its lagging compass, its locked course stepped every
-    every_s; statuses every 0.5 s in whole degrees, control records at 5 Hz with the status age."""
+    1-deg deadband) steering a Nomoto boat on its compass (a 0.5 s lag of the true heading, no
+    offset), its locked course stepped every every_s; statuses every 0.5 s in whole degrees,
+    control records at 5 Hz with the status age and the true heading (GNSS latency 0)."""
     rng = np.random.default_rng(seed)
     dt = 0.05
     n = int((len(steps) + 1) * every_s / dt)
@@ -377,25 +378,29 @@ def _pilot_trial(gain, damping_s, ram_dps=9.0, deadband_deg=1.0, steps=(10, -10,
         if i % 10 == 0:
             st = (t, float(round(compass)) % 360.0, course % 360.0, float(round(rudder)))
         if i % 4 == 0:
-            rows.append((t, st[1], st[2], st[3], int(round((t - st[0]) * 1000))))
-    a = {k: np.array(v) for k, v in zip(("t", "compass", "locked", "rudder", "compass_age_ms"), zip(*rows))}
+            rows.append((t, st[1], st[2], st[3], int(round((t - st[0]) * 1000)), heading))
+    a = {k: np.array(v) for k, v in zip(("t", "compass", "locked", "rudder", "compass_age_ms", "heading"), zip(*rows))}
     a["heading_ok"] = np.ones(len(a["t"]), bool)
     return {"a": a, "segments": [("step", 0.0, float(a["t"][-1]), {})]}
 
 
+_EXACT_COMPASS = {"lag_s": 0.5, "offset_deg": 0.0, "dev_sin_deg": 0.0, "dev_cos_deg": 0.0}
+
+
 def test_pilot_gain_from_its_reports():
-    """Within 20 % (gain and damping trade, and neither the damping nor the deadband is
-    identified: measured 0.83 / 1.49 / 2.53 / 2.05 for these four); the ram's speed within 25 % (a
-    low gain seldom drives the ram at its full speed for a second: 7.0 for 9.0 deg/s, the others
-    exact)."""
-    for gain, damping_s, ram, tol in ((0.9, 1.5, 9.0, 0.2), (1.5, 1.0, 7.0, 0.2), (2.3, 0.8, 12.0, 0.2),
-                                      (2.0, 1.8, 6.0, 0.2)):
-        pg = F.fit_pilot_gain(_pilot_trial(gain, damping_s, ram))
+    """The gain within 10 % (measured 0.91 / 1.51 / 2.31 / 2.16), the damping within 30 % (1.47 /
+    0.95 / 0.69 / 1.83 s: it trades with the deadband, which is not identified), the ram's speed
+    within 25 % (a low gain seldom drives the ram at its full speed for a second: 7.0 for 9.0
+    deg/s, the others exact); the stated 1-sigma of the gain below 10 %."""
+    for gain, damping_s, ram in ((0.9, 1.5, 9.0), (1.5, 1.0, 7.0), (2.3, 0.8, 12.0), (2.0, 1.8, 6.0)):
+        pg = F.fit_pilot_gain(_pilot_trial(gain, damping_s, ram), _EXACT_COMPASS, gnss_latency_s=0.0)
         assert pg["gain"] > 0.0, pg
-        assert abs(pg["gain"] / gain - 1.0) <= tol, (gain, pg)
+        assert abs(pg["gain"] / gain - 1.0) <= 0.1, (gain, pg)
+        assert pg["gain_sd"] / pg["gain"] < 0.1, pg
+        assert abs(pg["damping_s"] / damping_s - 1.0) <= 0.3, (damping_s, pg)
         assert abs(pg["ram_dps"] / ram - 1.0) <= 0.25, (ram, pg)
 
 
 def test_pilot_gain_not_claimed_without_large_errors():
-    pg = F.fit_pilot_gain(_pilot_trial(2.0, 1.0, steps=(2, -2, 2, -2)))
-    assert pg["gain"] == 0.0 and pg["informative"] == 0, pg
+    pg = F.fit_pilot_gain(_pilot_trial(2.0, 1.0, steps=(2, -2, 2, -2)), _EXACT_COMPASS, gnss_latency_s=0.0)
+    assert pg["gain"] == 0.0 and pg["informative"] == 0 and "course steps" in pg["why"], pg
