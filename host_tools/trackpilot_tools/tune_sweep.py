@@ -5,9 +5,10 @@ robust bench's engine (bench_robust.run_job on Dask), and which of the two to re
 What is drawn (per boat, from its seed):
 - identified, around the fit (normal, 1 sigma): K', T', the rudder dead time (as the flow lag),
   the compass lag; the pilot's rudder gain when the trial identified it (1 sigma taken as 10 %:
-  its error over simulated trials, docs/COMMISSIONING.md), with its ram speed as measured; the
-  compass offset/deviation, the RPM -> speed map and the current as fitted;
-- not identified by the trial (the ST2000+'s damping and deadband, its ram speed unless measured,
+  its error over simulated trials, docs/COMMISSIONING.md), with its ram speed as measured, and
+  its damping (log-normal, KD_LOG_SD: identified only roughly); the compass offset/deviation, the
+  RPM -> speed map and the current as fitted;
+- not identified by the trial (the ST2000+'s deadband, its ram speed unless measured,
   key delay, the compass's noise, wind, waves, GNSS latency): drawn from the robust bench's spreads
   (sim/boat_params.json),
   so the sweep also covers what the trial cannot see; but the pilot only where its simulated
@@ -25,6 +26,7 @@ from . import bench_robust as BR
 SPEEDS = BR.GOAL_SPEEDS
 T63_TOLERANCE = 0.2
 MAX_TRIES = 60
+KD_LOG_SD = 0.35  # the pilot's damping drawn around the fitted one: x0.70..1.42 at 1 sigma
 
 
 def measured_t63(fit):
@@ -87,6 +89,11 @@ def _draw_one(fit, seed, attempt):
     if kp:
         p["pilot"]["kp_rudder_per_deg"] = around(kp, 0.1 * kp, 0.2)
         flat["pilot.kp_rudder_per_deg"] = p["pilot"]["kp_rudder_per_deg"]
+    kd = sp.get("pilot", {}).get("kd_rudder_s")
+    if kd:
+        # identified only roughly (|error| median 15 %, p90 59 % on 40 simulated trials): wide
+        p["pilot"]["kd_rudder_s"] = min(5.0, max(0.1, kd * math.exp(rng.gauss(0.0, KD_LOG_SD))))
+        flat["pilot.kd_rudder_s"] = p["pilot"]["kd_rudder_s"]
     p["water"]["current_mps"] = cur["speed_mps"]
     p["water"]["current_dir_deg"] = cur["to_deg"]
     for key, val in (("boat.k_prime", p["boat"]["k_prime"]), ("boat.t_prime", p["boat"]["t_prime"]),

@@ -2,6 +2,7 @@
 tune` fits it, `trackpilot sim --boat` sails the fitted boat with the tuned configuration; and
 tune's refusals on logs without a complete trial."""
 import json
+import math
 import sys
 from pathlib import Path
 
@@ -146,6 +147,11 @@ def test_tune_sweep_around_the_fit(trial_run, tmp_path, capsys):
     for _seed, p, _flat in boats:
         assert abs(p["boat"]["k_prime"] - n["k_prime"]) <= 5 * n["k_prime_sd"] + 1e-9
     assert len({p["pilot"]["kp_rudder_per_deg"] for _s, p, _f in boats}) == 3
+    # the damping around the fitted one (log-normal, x0.7..1.4 at 1 sigma), not the spread's
+    kd = fit["sim_params"]["pilot"]["kd_rudder_s"]
+    for _seed, p, flat in boats:
+        assert kd * math.exp(-4 * S.KD_LOG_SD) <= p["pilot"]["kd_rudder_s"] <= kd * math.exp(4 * S.KD_LOG_SD)
+        assert flat["pilot.kd_rudder_s"] == p["pilot"]["kd_rudder_s"]
 
 
 def test_tune_refuses_a_cut_trial(trial_run, tmp_path, capsys):
