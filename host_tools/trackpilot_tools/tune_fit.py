@@ -1101,7 +1101,7 @@ def fit_pilot_gain(trial, comp, gnss_latency_s=0.075):
     The gain: the minimum of the profile (the best damping and deadband for each gain),
     interpolated on log gain, its 1-sigma from the profile's curvature widened for correlated
     errors. On the 40 simulated trials of boats 1-40 the gain came within 15 % on 40 (median 4 %)
-    and the damping within 15 % on 18; the deadband is not identified (docs/COMMISSIONING.md).
+    and the damping within 15 % on 20 (biased low); the deadband is not identified (docs/COMMISSIONING.md).
     gain 0.0: not claimed (too few reports with a large error, or sd above PILOT_GAIN_SD_MAX)."""
     st = pilot_statuses(trial)
     if len(st) < 20:
