@@ -20,6 +20,9 @@ class FakePilot:
         self.out = []  # (t_ms, datagram) due
         self.keys = []  # keys received (sender, key)
         self.next_status = 0
+        self.status_after_key = True  # False: 0x84 only once a second (some pilots)
+        self.lose_course_keys = ()  # indices (0 = first) of course keys lost on the way
+        self.course_keys_seen = 0
 
     def status(self, t):
         self.out.append((t, st.encode_84(int(self.heading + 0.5) % 360, self.course, self.mode)))
@@ -37,10 +40,14 @@ class FakePilot:
         elif k == st.KEY_STANDBY:
             self.mode = st.MODE_STANDBY
         elif k in st.KEY_DELTA_DEG and self.mode == st.MODE_AUTO and self.hang != "ignore_keys":
+            self.course_keys_seen += 1
+            if self.course_keys_seen - 1 in self.lose_course_keys:
+                return
             self.course = (self.course + st.KEY_DELTA_DEG[k]) % 360
         else:
             return
-        self.status(t + self.key_delay_ms)
+        if self.status_after_key:
+            self.status(t + self.key_delay_ms)
 
     def step(self, t, dt_ms):
         if self.mode == st.MODE_AUTO and self.hang == "stuck_turn":  # ram frozen off centre
@@ -145,6 +152,61 @@ def test_steer_to_steps_with_confirmed_keys():
     r.run(8000)
     T.eq(r.pilot.course, 352.0)
     T.true(sp.EV_TAKEOVER not in r.names())
+
+
+def _engaged_quiet_pilot(keys_in_flight, heading=100):
+    """A pilot that sends its 0x84 only once a second (none after a key), engaged."""
+    p = FakePilot(heading=heading)
+    p.status_after_key = False
+    p.rate_dps = 0.0
+    r = Rig(p, key_interval_ms=250, keys_in_flight=keys_in_flight)
+    r.run(1500)
+    r.drv.engage(r.t)
+    r.run(2500)
+    T.eq(r.drv.state, sp.ENGAGED)
+    return r
+
+
+def test_keys_in_flight_keep_the_key_rate_without_a_status_after_each_key():
+    """With 0x84 once a second only, one key at a time means one key a second; three in flight
+    keep the key interval (250 ms) and still land exactly, every key confirmed."""
+    for n, want_at_1s in ((1, 1), (3, 3)):
+        r = _engaged_quiet_pilot(n)
+        sent0 = r.drv.keys_sent
+        r.drv.steer_to(5.0, r.t)
+        r.run(1000)
+        T.eq(r.drv.keys_sent - sent0, want_at_1s)
+        r.run(6000)
+        T.eq(r.pilot.course, 105.0)
+        T.eq(r.drv.keys_sent - sent0, 5)  # +1 x 5, no overshoot
+        T.eq(r.drv.keys_confirmed, 5)
+        T.eq(r.drv.keys_unconfirmed, 0)
+        T.true(sp.EV_HANG not in r.names())
+    # and with a status after each key (BOAT_AND_BENCHMARK.md) three in flight change nothing
+    # of test_steer_to_steps_with_confirmed_keys: see that test (default keys_in_flight 3)
+
+
+def test_a_key_lost_in_flight_times_out_and_stepping_starts_again_from_the_pilot():
+    """The second of three keys in flight is lost: the status shows one landed, then the third:
+    no expectation matches that, the keys time out (one event for the oldest and those after
+    it), and the driver steps from the reported course to the target exactly."""
+    r = _engaged_quiet_pilot(3)
+    r.pilot.lose_course_keys = (1,)
+    r.drv.steer_to(5.0, r.t)
+    r.run(8000)
+    T.eq(r.pilot.course, 105.0)
+    T.true(sp.EV_KEY_UNCONFIRMED in r.names())
+    T.true(r.drv.keys_unconfirmed >= 1)
+    T.true(sp.EV_HANG not in r.names(), r.names())
+
+
+def test_a_pilot_ignoring_keys_in_flight_is_still_a_hang():
+    r = _engaged_quiet_pilot(3)
+    r.pilot.hang = "ignore_keys"
+    r.drv.steer_to(8.0, r.t)
+    r.run(6000)
+    T.true(sp.EV_HANG in r.names(), r.names())
+    T.true(r.drv.keys_unconfirmed >= r.drv.hang_unconfirmed_n)
 
 
 def test_key_rate_is_respected():

@@ -24,10 +24,17 @@ The driver's rule: keys go out on its own (course steps, hang recovery, re-sends
 only in ENGAGING/ENGAGED/RECOVERING/STANDING_BY, i.e. while the firmware is in AUTO or has just
 been asked for Standby. The one exception is the takeover race below.
 
-Keystroke stepping: one key at a time; the next only after the previous one is confirmed (the
-locked course in a later 0x84 equals the course expected after it) or timed out
-(`confirm_timeout_ms`), and at least `key_interval_ms` after the previous key. +-10 is used when
-|error| >= `ten_from_deg` (default 7: at most 3 deg of overshoot; 17 deg takes 5 keys, not 8).
+Keystroke stepping: keys at least `key_interval_ms` apart; a key waits for the one before to be
+confirmed (a later 0x84 shows the course expected after it) for `inflight_wait_ms`, and after
+that is sent anyway, up to `keys_in_flight` not yet confirmed, each reckoned from the course
+expected once those land. A status confirms every key up to the latest whose expected course
+its locked course equals (the pilot applies them in order); the oldest key not confirmed within
+`confirm_timeout_ms` times out with all after it, and stepping starts again from the reported
+course. A pilot that answers each key with an 0x84 (BOAT_AND_BENCHMARK.md) confirms within the
+wait, one key at a time; one that sends its 0x84 only once a second would otherwise get one key a
+second (docs/SEATALK.md "Keys in flight").
++-10 is used when |error| >= `ten_from_deg` (default 7: at most 3 deg of overshoot; 17 deg takes
+5 keys, not 8).
 
 A person taking over: any keystroke datagram that reaches on_datagram -> EV_TAKEOVER at once
 (0x86 carries its own check byte). Our own keystrokes never get here: StLink consumes their echo
@@ -99,7 +106,8 @@ class St2000:
                  status_timeout_ms=3500, hang_unconfirmed_n=3, converge_err_deg=15.0,
                  converge_window_ms=15000, converge_progress_deg=8.0, converge_min_speed_mps=0.8,
                  recover_retries=3,
-                 recover_pause_ms=1000, ten_from_deg=7.0, tolerance_deg=0.5, events_len=32):
+                 recover_pause_ms=1000, ten_from_deg=7.0, tolerance_deg=0.5, keys_in_flight=3,
+                 inflight_wait_ms=600, events_len=32):
         if isinstance(odd_rule, str):
             odd_rule = st.ODD_KNAUF if odd_rule == "knauf" else st.ODD_DOTNET
         self.send = send
@@ -119,6 +127,8 @@ class St2000:
         self.recover_pause_ms = recover_pause_ms
         self.ten_from_deg = ten_from_deg
         self.tolerance_deg = tolerance_deg
+        self.keys_in_flight = max(1, int(keys_in_flight))
+        self.inflight_wait_ms = inflight_wait_ms
         self._evmax = events_len
         self._ev = []
         # what the pilot reports (None until seen)
@@ -140,9 +150,7 @@ class St2000:
         self._want = None  # mode asked for (MODE_AUTO / MODE_STANDBY) or None
         self._want_t = 0
         self._want_sends = 0
-        self._key = None  # key awaiting confirmation
-        self._key_t = 0
-        self._key_expect = 0.0
+        self._fl = []  # keys awaiting confirmation, oldest first: [key, t_ms sent, course expected after it]
         self._last_key_t = None
         self._sent_key = None  # our last keystroke on the bus (on_sent), for the takeover race
         self._sent_key_t = 0
@@ -179,7 +187,8 @@ class St2000:
         names = ("sender_id", "odd_rule", "key_interval_ms", "confirm_timeout_ms", "mode_confirm_ms",
                  "mode_resends", "status_timeout_ms", "hang_unconfirmed_n", "converge_err_deg",
                  "converge_window_ms", "converge_progress_deg", "converge_min_speed_mps",
-                 "recover_retries", "recover_pause_ms", "ten_from_deg", "tolerance_deg")
+                 "recover_retries", "recover_pause_ms", "ten_from_deg", "tolerance_deg", "keys_in_flight",
+                 "inflight_wait_ms")
         kw = {}
         for k in names:
             if k in pilot_cfg:
@@ -225,14 +234,14 @@ class St2000:
         self._want = mode
         self._want_t = t_ms
         self._want_sends = 1
-        self._key = None
+        del self._fl[:]
         self._send_key(st.KEY_AUTO if mode == st.MODE_AUTO else st.KEY_STANDBY, t_ms)
 
     def on_send_failed(self, dg, t_ms):
         """The link gave up on one of our datagrams (bus fault): a keystroke that never went out
         does not count as unconfirmed by the pilot."""
-        if len(dg) == 4 and dg[0] == 0x86 and self._key is not None and dg[2] == self._key:
-            self._key = None
+        if len(dg) == 4 and dg[0] == 0x86 and self._fl and dg[2] in st.KEY_DELTA_DEG:
+            del self._fl[:]  # the expectations after it are off: start again from the next status
 
     # ---- commands ----
     def engage(self, t_ms):
@@ -260,7 +269,7 @@ class St2000:
     def standby(self, t_ms):
         """Send Standby (always allowed: it frees the tiller), confirm it, re-send bounded."""
         self.target_course_deg = None
-        self._key = None
+        del self._fl[:]
         if self.status_fresh(t_ms) and self.mode == st.MODE_STANDBY:
             self.state = IDLE
             self._want = None
@@ -276,7 +285,7 @@ class St2000:
             return  # idle, taken over or failed: already sending nothing
         self.state = HOLDING
         self._want = None
-        self._key = None
+        del self._fl[:]
         self.target_course_deg = None
         self._event(EV_MODE, t_ms, "driver holding, sends nothing: " + reason)
 
@@ -284,7 +293,7 @@ class St2000:
         """Stop commanding without sending anything (leave the pilot as it is)."""
         self.state = IDLE
         self._want = None
-        self._key = None
+        del self._fl[:]
         self.target_course_deg = None
         self._event(EV_MODE, t_ms, "driver idle: " + reason)
 
@@ -332,11 +341,14 @@ class St2000:
         self.mode = d["mode"]
         if old != self.mode:
             self._on_mode_change(old, t_ms)
-        if self._key is not None and ticks_diff(t_ms, self._key_t) >= 0:
-            if abs(wrap180(self.course_deg - self._key_expect)) < 0.25:
-                self.keys_confirmed += 1
+        fl = self._fl
+        for k in range(len(fl) - 1, -1, -1):
+            # the latest key whose expected course this status shows: it and all before it landed
+            if ticks_diff(t_ms, fl[k][1]) >= 0 and abs(wrap180(self.course_deg - fl[k][2])) < 0.25:
+                self.keys_confirmed += k + 1
                 self._unconf = 0
-                self._key = None
+                del fl[:k + 1]
+                break
 
     def _unasked_once(self, new, t_ms):
         """True when this status shows, for the first time, a mode we did not ask for while
@@ -418,14 +430,14 @@ class St2000:
         self.takeovers += 1
         self.state = TAKEN_OVER
         self._want = None
-        self._key = None
+        del self._fl[:]
         self.target_course_deg = None
         self._event(EV_TAKEOVER, t_ms, why)
 
     def _reset_hang(self):
         self._unconf = 0
         self._conv_t0 = None
-        self._key = None
+        del self._fl[:]
         self._mode_suspect = None
 
     def note_motion(self, t_ms, heading_deg=None, speed_mps=None):
@@ -449,13 +461,16 @@ class St2000:
             due.append(ticks_diff(self._rt, t_ms) + self.recover_pause_ms if self._rattempt or
                        self._rstage == _R_AUTO_SEND else 0)
         if s == ENGAGED:
-            if self._key is not None:
-                due.append(ticks_diff(self._key_t, t_ms) + self.confirm_timeout_ms)
-            elif (self.target_course_deg is not None and self.course_deg is not None
-                  and self._keys_allowed() and abs(
-                      wrap180(self.target_course_deg - self.course_deg)) > self.tolerance_deg):
-                due.append(0 if self._last_key_t is None else
-                           ticks_diff(self._last_key_t, t_ms) + self.key_interval_ms)
+            if self._fl:
+                due.append(ticks_diff(self._fl[0][1], t_ms) + self.confirm_timeout_ms)
+            if (self.target_course_deg is not None and self.course_deg is not None
+                    and len(self._fl) < self.keys_in_flight and self._keys_allowed() and abs(
+                        wrap180(self.target_course_deg - self._expected_course())) > self.tolerance_deg):
+                d = 0 if self._last_key_t is None else ticks_diff(self._last_key_t, t_ms) + self.key_interval_ms
+                if self._fl:
+                    w = ticks_diff(self._fl[0][1], t_ms) + self.inflight_wait_ms
+                    d = w if w > d else d
+                due.append(d)
             if self._conv_t0 is not None:
                 due.append(ticks_diff(self._conv_t0, t_ms) + self.converge_window_ms)
         d = min(due)
@@ -506,15 +521,16 @@ class St2000:
             return
         if self._converge_check(t_ms):
             return
-        # (a) keystrokes not followed
-        if self._key is not None:
-            if ticks_diff(t_ms, self._key_t) < self.confirm_timeout_ms:
-                return
-            self.keys_unconfirmed += 1
-            self._unconf += 1
-            self._event(EV_KEY_UNCONFIRMED, t_ms, "key %s: course %s, expected %s" % (
-                st.KEY_NAMES[self._key], self.course_deg, self._key_expect))
-            self._key = None
+        # (a) keystrokes not followed: the oldest timed out, and every key sent after it
+        fl = self._fl
+        if fl and ticks_diff(t_ms, fl[0][1]) >= self.confirm_timeout_ms:
+            n = len(fl)
+            self.keys_unconfirmed += n
+            self._unconf += n
+            self._event(EV_KEY_UNCONFIRMED, t_ms, "key %s%s: course %s, expected %s" % (
+                st.KEY_NAMES[fl[0][0]], " and %d after it" % (n - 1) if n > 1 else "", self.course_deg,
+                fl[0][2]))
+            del fl[:]
             need = self.hang_unconfirmed_n
             if self.bus_noisy(t_ms):
                 need *= 2  # a noisy bus loses keys (no checksum but the 0x86 complement)
@@ -522,11 +538,14 @@ class St2000:
                 self._hang(t_ms, "%d keystrokes in a row not followed%s" % (
                     self._unconf, " (bus noisy)" if need != self.hang_unconfirmed_n else ""))
                 return
-        if self.target_course_deg is None:
+        if self.target_course_deg is None or len(fl) >= self.keys_in_flight:
             return
+        if fl and ticks_diff(t_ms, fl[0][1]) < self.inflight_wait_ms:
+            return  # its confirmation may be on the way
         if self._last_key_t is not None and ticks_diff(t_ms, self._last_key_t) < self.key_interval_ms:
             return
-        e = wrap180(self.target_course_deg - self.course_deg)
+        base = self._expected_course()
+        e = wrap180(self.target_course_deg - base)
         if abs(e) <= self.tolerance_deg:
             return
         if e >= self.ten_from_deg:
@@ -538,9 +557,11 @@ class St2000:
         else:
             key = st.KEY_MINUS_1
         if self._send_key(key, t_ms):
-            self._key = key
-            self._key_t = t_ms
-            self._key_expect = wrap360(self.course_deg + st.KEY_DELTA_DEG[key])
+            fl.append([key, t_ms, wrap360(base + st.KEY_DELTA_DEG[key])])
+
+    def _expected_course(self):
+        """The locked course once the keys in flight have landed (the reported one if none)."""
+        return self._fl[-1][2] if self._fl else self.course_deg
 
     def bus_noise(self, t_ms):
         """The app saw a bus error (a corrupt or broken datagram). Returns True when the bus was
@@ -601,7 +622,7 @@ class St2000:
         self._rattempt = 0
         self._rstage = _R_STANDBY_SEND
         self._rt = t_ms
-        self._key = None
+        del self._fl[:]
         self._want = None
 
     def _attempt_failed(self, t_ms, why):

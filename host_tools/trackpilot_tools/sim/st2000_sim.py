@@ -9,7 +9,8 @@
   with the command bit starts a datagram, data characters complete it, a datagram that is cut short
   or malformed is ignored. +-1/+-10 change the locked course after `key_delay_ms`; Auto locks the
   current compass heading; Standby frees the tiller.
-- Status: 0x84 every `status_period_ms` and once right after each accepted key; 0x9C every period.
+- Status: 0x84 every `status_period_ms` and, with `status_after_key` (default), once right after
+  each accepted key; 0x9C every period.
 - Hang faults: "steer" (keeps talking and taking keys, the rudder stops tracking) and "keys"
   (ignores course keys). Standby then Auto clears either.
 - A person pressing a key on the unit: sends 0x86 with sender 0 on the bus and acts on it.
@@ -206,7 +207,8 @@ class ST2000Sim:
                 accepted = True
         if accepted:
             self.keys_accepted += 1
-            self.send_84(t_us)
+            if self.p.get("status_after_key", 1):
+                self.send_84(t_us)
         else:
             self.keys_ignored += 1
 
