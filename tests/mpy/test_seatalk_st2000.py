@@ -23,8 +23,12 @@ class FakePilot:
         self.status_after_key = True  # False: 0x84 only once a second (some pilots)
         self.lose_course_keys = ()  # indices (0 = first) of course keys lost on the way
         self.course_keys_seen = 0
+        self.lose_statuses = 0  # the next n statuses are lost on the bus
 
     def status(self, t):
+        if self.lose_statuses:
+            self.lose_statuses -= 1  # lost on the bus
+            return
         self.out.append((t, st.encode_84(int(self.heading + 0.5) % 360, self.course, self.mode)))
 
     def receive(self, dg, t):
@@ -201,12 +205,31 @@ def test_a_key_lost_in_flight_times_out_and_stepping_starts_again_from_the_pilot
 
 
 def test_a_pilot_ignoring_keys_in_flight_is_still_a_hang():
+    """Keys that time out together are one missing confirmation: hang_unconfirmed_n (3) timeouts
+    in a row make the hang, as with one key at a time (about 5 s)."""
     r = _engaged_quiet_pilot(3)
     r.pilot.hang = "ignore_keys"
+    t0 = r.t
     r.drv.steer_to(8.0, r.t)
-    r.run(6000)
+    r.run(3500)
+    T.true(sp.EV_HANG not in r.names(), r.names())  # two timeouts so far
+    r.run(4000)
     T.true(sp.EV_HANG in r.names(), r.names())
-    T.true(r.drv.keys_unconfirmed >= r.drv.hang_unconfirmed_n)
+    T.true(r.drv.keys_unconfirmed > r.drv.hang_unconfirmed_n)  # keys counted, timeouts judged
+
+
+def test_lost_statuses_with_keys_in_flight_are_not_a_hang():
+    """A pilot that sends 0x84 once a second, two in a row lost on the bus while three keys are in
+    flight: they time out together, once (one KEY_UNCONFIRMED, not three keys ignored), stepping
+    starts again from the next status, no hang."""
+    r = _engaged_quiet_pilot(3)
+    r.run(600)  # just after a periodic status: the next one comes with three keys in flight
+    r.drv.steer_to(6.0, r.t)
+    r.pilot.lose_statuses = 2
+    r.run(8000)
+    T.eq(r.pilot.course, 106.0)
+    T.eq(r.names().count(sp.EV_KEY_UNCONFIRMED), 1)
+    T.true(sp.EV_HANG not in r.names(), r.names())
 
 
 def test_key_rate_is_respected():

@@ -29,8 +29,7 @@ confirmed (a later 0x84 shows the course expected after it) for `inflight_wait_m
 that is sent anyway, up to `keys_in_flight` not yet confirmed, each reckoned from the course
 expected once those land. A status confirms every key up to the latest whose expected course
 its locked course equals (the pilot applies them in order); the oldest key not confirmed within
-`confirm_timeout_ms` times out with all after it, and stepping starts again from the reported
-course. A pilot that answers each key with an 0x84 (BOAT_AND_BENCHMARK.md) confirms within the
+`confirm_timeout_ms` times out with all after it, and stepping starts again from the next status. A pilot that answers each key with an 0x84 (BOAT_AND_BENCHMARK.md) confirms within the
 wait, one key at a time; one that sends its 0x84 only once a second would otherwise get one key a
 second (docs/SEATALK.md "Keys in flight").
 +-10 is used when |error| >= `ten_from_deg` (default 7: at most 3 deg of overshoot; 17 deg takes
@@ -50,7 +49,8 @@ same mode (SeaTalk has no checksum: one flipped bit in the mode byte must not en
 the datagram is set aside and no keys are sent, so a person still wins within one status period.
 
 The hung pilot (ARCHITECTURE.md), while ENGAGED:
-  (a) `hang_unconfirmed_n` keystrokes in a row not confirmed, twice that within _NOISE_MS of a
+  (a) `hang_unconfirmed_n` keystroke timeouts in a row (keys in flight that time out together are
+      one), twice that within _NOISE_MS of a
       bus error the app reported (bus_noise: a corrupt key is lost, not ignored by a hung pilot);
   (b) no 0x84/0x95 status for `status_timeout_ms`;
   (c) in Auto, |locked course - heading| above `converge_err_deg` for a whole window of
@@ -151,6 +151,7 @@ class St2000:
         self._want_t = 0
         self._want_sends = 0
         self._fl = []  # keys awaiting confirmation, oldest first: [key, t_ms sent, course expected after it]
+        self._sync_ms = None  # keys timed out or failed then: no key until a status newer than that
         self._last_key_t = None
         self._sent_key = None  # our last keystroke on the bus (on_sent), for the takeover race
         self._sent_key_t = 0
@@ -242,6 +243,7 @@ class St2000:
         does not count as unconfirmed by the pilot."""
         if len(dg) == 4 and dg[0] == 0x86 and self._fl and dg[2] in st.KEY_DELTA_DEG:
             del self._fl[:]  # the expectations after it are off: start again from the next status
+            self._sync_ms = t_ms
 
     # ---- commands ----
     def engage(self, t_ms):
@@ -438,6 +440,7 @@ class St2000:
         self._unconf = 0
         self._conv_t0 = None
         del self._fl[:]
+        self._sync_ms = None
         self._mode_suspect = None
 
     def note_motion(self, t_ms, heading_deg=None, speed_mps=None):
@@ -463,7 +466,7 @@ class St2000:
         if s == ENGAGED:
             if self._fl:
                 due.append(ticks_diff(self._fl[0][1], t_ms) + self.confirm_timeout_ms)
-            if (self.target_course_deg is not None and self.course_deg is not None
+            if (self.target_course_deg is not None and self.course_deg is not None and self._sync_ms is None
                     and len(self._fl) < self.keys_in_flight and self._keys_allowed() and abs(
                         wrap180(self.target_course_deg - self._expected_course())) > self.tolerance_deg):
                 d = 0 if self._last_key_t is None else ticks_diff(self._last_key_t, t_ms) + self.key_interval_ms
@@ -521,16 +524,18 @@ class St2000:
             return
         if self._converge_check(t_ms):
             return
-        # (a) keystrokes not followed: the oldest timed out, and every key sent after it
+        # (a) keystrokes not followed: the oldest timed out, and every key sent after it (one
+        # missing confirmation: a single lost status must not count as several keys ignored)
         fl = self._fl
         if fl and ticks_diff(t_ms, fl[0][1]) >= self.confirm_timeout_ms:
             n = len(fl)
             self.keys_unconfirmed += n
-            self._unconf += n
+            self._unconf += 1
             self._event(EV_KEY_UNCONFIRMED, t_ms, "key %s%s: course %s, expected %s" % (
                 st.KEY_NAMES[fl[0][0]], " and %d after it" % (n - 1) if n > 1 else "", self.course_deg,
                 fl[0][2]))
             del fl[:]
+            self._sync_ms = t_ms  # the reported course may not show keys that landed since
             need = self.hang_unconfirmed_n
             if self.bus_noisy(t_ms):
                 need *= 2  # a noisy bus loses keys (no checksum but the 0x86 complement)
@@ -540,6 +545,10 @@ class St2000:
                 return
         if self.target_course_deg is None or len(fl) >= self.keys_in_flight:
             return
+        if self._sync_ms is not None:
+            if self.last_status_ms is None or ticks_diff(self.last_status_ms, self._sync_ms) <= 0:
+                return  # wait for a status that shows what landed
+            self._sync_ms = None
         if fl and ticks_diff(t_ms, fl[0][1]) < self.inflight_wait_ms:
             return  # its confirmation may be on the way
         if self._last_key_t is not None and ticks_diff(t_ms, self._last_key_t) < self.key_interval_ms:
