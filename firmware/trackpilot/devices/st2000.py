@@ -540,7 +540,7 @@ class St2000:
             if self.bus_noisy(t_ms):
                 need *= 2  # a noisy bus loses keys (no checksum but the 0x86 complement)
             if self._unconf >= need:
-                self._hang(t_ms, "keystrokes not followed: %d timeouts in a row%s" % (
+                self._hang(t_ms, "%d keystrokes in a row not followed%s" % (
                     self._unconf, " (bus noisy)" if need != self.hang_unconfirmed_n else ""))
                 return
         if self.target_course_deg is None or len(fl) >= self.keys_in_flight:
