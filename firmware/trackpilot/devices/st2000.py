@@ -29,11 +29,11 @@ confirmed (a later 0x84 shows the course expected after it) for `inflight_wait_m
 that is sent anyway, up to `keys_in_flight` not yet confirmed, each reckoned from the course
 expected once those land. A status confirms every key up to the latest whose expected course
 its locked course equals (the pilot applies them in order); the oldest key not confirmed within
-`confirm_timeout_ms` times out with all after it, and stepping starts again from the next status. A pilot that answers each key with an 0x84 (BOAT_AND_BENCHMARK.md) confirms within the
-wait, one key at a time; one that sends its 0x84 only once a second would otherwise get one key a
-second (docs/SEATALK.md "Keys in flight").
-+-10 is used when |error| >= `ten_from_deg` (default 7: at most 3 deg of overshoot; 17 deg takes
-5 keys, not 8).
+`confirm_timeout_ms` times out with all after it, and stepping starts again from the next
+status. A pilot that answers each key with an 0x84 (BOAT_AND_BENCHMARK.md) confirms within the
+wait, one key at a time; one that sends its 0x84 only once a second would otherwise get one key
+a second (docs/SEATALK.md "Keys in flight"). +-10 is used when |error| >= `ten_from_deg`
+(default 7: at most 3 deg of overshoot; 17 deg takes 5 keys, not 8).
 
 A person taking over: any keystroke datagram that reaches on_datagram -> EV_TAKEOVER at once
 (0x86 carries its own check byte). Our own keystrokes never get here: StLink consumes their echo
@@ -50,8 +50,8 @@ the datagram is set aside and no keys are sent, so a person still wins within on
 
 The hung pilot (ARCHITECTURE.md), while ENGAGED:
   (a) `hang_unconfirmed_n` keystroke timeouts in a row (keys in flight that time out together are
-      one), twice that within _NOISE_MS of a
-      bus error the app reported (bus_noise: a corrupt key is lost, not ignored by a hung pilot);
+      one), twice that within _NOISE_MS of a bus error the app reported (bus_noise: a corrupt key
+      is lost, not ignored by a hung pilot);
   (b) no 0x84/0x95 status for `status_timeout_ms`;
   (c) in Auto, |locked course - heading| above `converge_err_deg` for a whole window of
       `converge_window_ms` in which the heading moved towards the locked course by less than
