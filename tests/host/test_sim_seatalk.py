@@ -104,6 +104,20 @@ def test_status_84_and_9c_at_1hz():
     assert abs(d["heading_deg"] - (100 + 4.0)) <= 4  # compass offset 4 deg + slow drift
 
 
+def test_a_quieter_pilot_no_9c_and_no_status_after_a_key():
+    """pilot.status_9c 0 and status_after_key 0: only the 0x84 once a second, also after a key."""
+    r = Rig(status_9c=0, status_after_key=0)
+    c0 = engage(r)
+    t0 = r.t_us
+    r.write(stcodec.encode_86(1, stcodec.KEY_PLUS_1))
+    r.run(r.t_us / 1e6 + 3.0)
+    assert r.pilot.course_deg == (c0 + 1) % 360
+    dg = r.datagrams(t0)
+    assert not [d for _, d in dg if d[0] == 0x9C]
+    t84 = [t for t, d in dg if d[0] == 0x84]
+    assert len(t84) == 3 and all(800_000 <= b - a <= 1_200_000 for a, b in zip(t84, t84[1:])), t84
+
+
 def engage(r):
     r.pilot.start(0, phase_us=300_000)
     r.run(1.0)

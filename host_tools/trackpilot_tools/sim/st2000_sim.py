@@ -10,7 +10,7 @@
   or malformed is ignored. +-1/+-10 change the locked course after `key_delay_ms`; Auto locks the
   current compass heading; Standby frees the tiller.
 - Status: 0x84 every `status_period_ms` and, with `status_after_key` (default), once right after
-  each accepted key; 0x9C every period.
+  each accepted key; 0x9C every period (unless `status_9c` is 0).
 - Hang faults: "steer" (keeps talking and taking keys, the rudder stops tracking) and "keys"
   (ignores course keys). Standby then Auto clears either.
 - A person pressing a key on the unit: sends 0x86 with sender 0 on the bus and acts on it.
@@ -62,7 +62,8 @@ class ST2000Sim:
         self.started = True
         per = self.p["status_period_ms"] * 1000
         self.sched.at(t_us + phase_us, self._status_84)
-        self.sched.at(t_us + phase_us + self.p["status_9c_phase_ms"] * 1000, self._status_9c)
+        if self.p.get("status_9c", 1):
+            self.sched.at(t_us + phase_us + self.p["status_9c_phase_ms"] * 1000, self._status_9c)
         self._period_us = per
 
     def _status_84(self, t_us):
