@@ -200,8 +200,10 @@ def report_text(fit, plots, args):
                  "compass rate; on simulated trials within 15 %% on half, biased low), ram %.1f deg/s; "
                  "%d reports, %.1f deg RMS; its deadband is not identified. `sim --boat` sails them; the "
                  "gain is not written into the configuration: the law learns the gain on the water and "
-                 "clips a high one itself (guidance.los_pilot_gain would clip from the first engage, "
-                 "measured worse on simulated boats: docs/COMMISSIONING.md)." % (
+                 "clips a high one itself. guidance.los_pilot_gain would clip from the first engage: on "
+                 "simulated boats fewer runs swing, but pilots that hunt on their own sail worse, and "
+                 "the trial does not tell them apart (docs/COMMISSIONING.md); set it where the pilot "
+                 "does not hunt." % (
                      _pm(pg["gain"], pg["gain_sd"], "%.2f"), _pm(pg["damping_s"], pg["damping_sd_s"], "%.2f"),
                      pg["ram_dps"], pg["scored"], pg["rms_deg"]))
     elif pg:

@@ -1298,9 +1298,9 @@ def derive_guidance(nomoto, circle, steps, speed_map):
     R = round(min(100.0, max(2.0, R)), 1)
     guidance = {"law": "los"}
     guidance.update(keys)
-    # the pilot's gain (pilot_gain) is reported, not written as guidance.los_pilot_gain: on 13
-    # simulated boats the clip from the first engage did worse than the law's own learning on the
-    # water (docs/COMMISSIONING.md "The pilot's own gain")
+    # the pilot's gain (pilot_gain) is reported, not written as guidance.los_pilot_gain: from the
+    # first engage it settles more high-gain pilots but makes those that hunt on their own worse,
+    # and the trial does not tell them apart (docs/COMMISSIONING.md "The pilot's own loop")
     cfg = {
         "boat": {"min_turn_radius_m": R},  # boat.min_turn_radius_m sets the law's corner radius
         "guidance": guidance,
