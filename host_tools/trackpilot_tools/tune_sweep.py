@@ -91,7 +91,7 @@ def _draw_one(fit, seed, attempt):
         flat["pilot.kp_rudder_per_deg"] = p["pilot"]["kp_rudder_per_deg"]
     kd = sp.get("pilot", {}).get("kd_rudder_s")
     if kd:
-        # identified only roughly (|error| median 15 %, p90 59 % on 40 simulated trials): wide
+        # identified only roughly (|error| median 12 %, p90 43 % on 40 simulated trials): wide
         p["pilot"]["kd_rudder_s"] = min(5.0, max(0.1, kd * math.exp(rng.gauss(0.0, KD_LOG_SD))))
         flat["pilot.kd_rudder_s"] = p["pilot"]["kd_rudder_s"]
     p["water"]["current_mps"] = cur["speed_mps"]
