@@ -132,12 +132,12 @@ class PilotGain:
             self.informative += 1
         if self.informative < NEED_REPORTS or self.scored % 5:
             return False
-        self.estimate()
+        self._estimate()
         return True
 
-    def estimate(self):
+    def _estimate(self):
         """Compute the estimate from the sums now (step() does it every 5 scored reports once
-        NEED_REPORTS informative ones were seen; an offline caller may at the end)."""
+        NEED_REPORTS informative ones were seen)."""
         nd = len(DAMPINGS)
         sse = self._sse
         best = []  # per gain: the best damping's sum
