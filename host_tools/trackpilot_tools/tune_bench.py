@@ -65,6 +65,9 @@ def fit_boat(row, out, params):
     row["fit"]["pilot_gain"] = fit["pilot_gain"]["gain"]  # 0.0: not sure
     row["truth"]["pilot_damping_s"] = params["pilot"]["kd_rudder_s"]
     row["fit"]["pilot_damping_s"] = fit["pilot_gain"].get("damping_s", 0.0)
+    row["truth"]["pilot_deadband_deg"] = params["pilot"]["deadband_deg"]
+    row["fit"]["pilot_deadband_deg"] = fit["pilot_gain"].get("deadband_deg", 0.0)
+    row["sd"]["pilot_deadband_deg"] = fit["pilot_gain"].get("deadband_sd_deg", float("inf"))
     row["sd"]["pilot_gain"] = fit["pilot_gain"].get("gain_sd", float("inf"))
     row["refusals"] = fit["problems"]
     _more_truth(row, out, params, fit)
@@ -181,6 +184,16 @@ def table(rows):
                              100 * e[len(e) // 2], 100 * e[min(len(e) - 1, int(0.9 * len(e)))], 100 * e[-1],
                              sum(1 for x in e if x <= 0.15), len(e),
                              sum(1 for r in sure if abs(1.5 / r["truth"]["pilot_damping_s"] - 1.0) <= 0.15)))
+        db = [r for r in sure if "pilot_deadband_deg" in r["truth"]]
+        if db:
+            e = sorted(abs(r["fit"]["pilot_deadband_deg"] - r["truth"]["pilot_deadband_deg"]) for r in db)
+            cov = sum(1 for r in db if abs(r["fit"]["pilot_deadband_deg"] - r["truth"]["pilot_deadband_deg"])
+                      <= 2 * r["sd"]["pilot_deadband_deg"])
+            lines.append("pilot_deadband |error| median %.2f, p90 %.2f, worst %.2f deg; within 0.5 deg: %d/%d "
+                         "(the configured default 1 deg would be on %d); within 2 sigma: %d/%d" % (
+                             e[len(e) // 2], e[min(len(e) - 1, int(0.9 * len(e)))], e[-1],
+                             sum(1 for x in e if x <= 0.5), len(e),
+                             sum(1 for r in db if abs(1.0 - r["truth"]["pilot_deadband_deg"]) <= 0.5), cov, len(db)))
     dur = [r["trial_s"] for r in ok]
     lines.append("trial duration: %.0f-%.0f s" % (min(dur), max(dur)))
     # is the stated uncertainty honest: |error| <= 2 sigma; and what tune accepts

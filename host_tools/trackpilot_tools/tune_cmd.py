@@ -198,14 +198,16 @@ def report_text(fit, plots, args):
         L.append("\nThe pilot's own loop (P-D models run between its reports, tune_fit.fit_pilot_gain): "
                  "rudder gain %s deg per deg of course error, damping %s s (deg of rudder per deg/s of "
                  "compass rate; on simulated trials within 15 %% on half, biased low), ram %.1f deg/s; "
-                 "%d reports, %.1f deg RMS; its deadband is not identified. `sim --boat` sails them; the "
+                 "deadband %s deg (roughly: within 0.5 deg on 25 of 40 simulated trials); "
+                 "%d reports, %.1f deg RMS. `sim --boat` sails them; the "
                  "gain is not written into the configuration: the law learns the gain on the water and "
                  "clips a high one itself. guidance.los_pilot_gain would clip from the first engage: on "
                  "simulated boats fewer runs swing, but pilots that hunt on their own sail worse, and "
                  "the trial does not tell them apart (docs/COMMISSIONING.md); set it where the pilot "
                  "does not hunt." % (
                      _pm(pg["gain"], pg["gain_sd"], "%.2f"), _pm(pg["damping_s"], pg["damping_sd_s"], "%.2f"),
-                     pg["ram_dps"], pg["scored"], pg["rms_deg"]))
+                     pg["ram_dps"], _pm(pg["deadband_deg"], pg["deadband_sd_deg"], "%.1f"), pg["scored"],
+                     pg["rms_deg"]))
     elif pg:
         L.append("\nThe pilot's own rudder gain: not identified from this trial (%s)." % pg.get("why", "?"))
     for rpm, peaks in sorted(zz["overshoot_deg"].items()):
@@ -233,9 +235,10 @@ def report_text(fit, plots, args):
     if "sweep" in fit:
         from trackpilot_tools import tune_sweep as S
 
-        L.append("%d boats drawn around the fit within its 1-sigma uncertainty (the pilot's own "
-                 "gains, deadband, ram, key delay, wind, waves and GNSS latency from the robust "
-                 "bench's spreads: the trial does not identify them), one straight each at 1, 2 or "
+        L.append("%d boats drawn around the fit within its 1-sigma uncertainty (the pilot's gain, "
+                 "damping and deadband around their fits, its ram as measured; key delay, wind, waves "
+                 "and GNSS latency from the robust bench's spreads: the trial does not identify "
+                 "them), one straight each at 1, 2 or "
                  "3 m/s, law `los`, truth xte:\n" % fit["sweep"]["boats"])
         L.append(S.table_md(fit["sweep"]["summary"]) + "\n")
     else:
