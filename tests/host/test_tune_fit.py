@@ -401,7 +401,6 @@ def test_pilot_gain_from_its_reports():
         assert abs(pg["ram_dps"] / ram - 1.0) <= 0.25, (ram, pg)
 
 
-
 def test_pilot_deadband_from_its_reports():
     """The deadband from its own profile, within 0.3 deg on the exact model (measured 0.51 / 2.02 /
     3.11 / 1.33 for 0.5 / 2.0 / 3.0 / 1.5); its stated 1-sigma never under the method's spread on
@@ -418,6 +417,7 @@ def test_pilot_deadband_from_its_reports():
     sp = F.sim_params(nom, comp, sm, pg)
     assert sp["pilot"]["deadband_deg"] == round(pg["deadband_deg"], 2)
     assert "deadband_deg" not in F.sim_params(nom, comp, sm, {"gain": 0.0})["pilot"]
+
 
 def test_pilot_gain_not_claimed_without_large_errors():
     pg = F.fit_pilot_gain(_pilot_trial(2.0, 1.0, steps=(2, -2, 2, -2)), _EXACT_COMPASS, gnss_latency_s=0.0)
