@@ -208,6 +208,9 @@ def report_text(fit, plots, args):
                      _pm(pg["gain"], pg["gain_sd"], "%.2f"), _pm(pg["damping_s"], pg["damping_sd_s"], "%.2f"),
                      pg["ram_dps"], _pm(pg["deadband_deg"], pg["deadband_sd_deg"], "%.1f"), pg["scored"],
                      pg["rms_deg"]))
+        if not fit.get("limit_cycles"):
+            L.append("\nSimulated alone on the fitted boat in quiet water, the pilot as fitted comes out "
+                     "of a 40 deg course change at 1, 2 and 3 m/s (no limit cycle; tune_fit.pilot_limit_cycles).")
     elif pg:
         L.append("\nThe pilot's own rudder gain: not identified from this trial (%s)." % pg.get("why", "?"))
     for rpm, peaks in sorted(zz["overshoot_deg"].items()):

@@ -18,6 +18,7 @@ fits into settings with a stated margin. docs/COMMISSIONING.md explains the meth
 Uncertainties are from the fit's curvature, widened for correlated residuals (wave yaw), or the
 spread between repeats.
 """
+import json
 import math
 
 import numpy as np
@@ -1497,4 +1498,29 @@ def fit_all(d, length_m=5.0, gnss_latency_s=0.075):
     fit["warnings"] = warnings(fit)
     fit["config"], fit["margins"] = derive_guidance(nom, circ, steps, sm)
     fit["sim_params"] = sim_params(nom, comp, sm, pg)
+    fit["limit_cycles"] = pilot_limit_cycles(fit["sim_params"]) if pg.get("gain", 0.0) > 0.0 else []
+    for u, pp in fit["limit_cycles"]:
+        fit["warnings"].append(
+            "at %.0f m/s the pilot as fitted does not come out of a %.0f deg course change: simulated "
+            "with its fitted gain, damping, deadband and ram on the fitted boat in quiet water, the "
+            "heading still swings %.0f deg peak to peak after 90 s (its ram saturates). Lower its "
+            "response/rudder gain before sailing that fast, or keep course changes small there"
+            % (u, LIMIT_CYCLE_STEP_DEG, pp))
     return fit
+
+
+# the course change the pilot-alone check asks for: a corner, a person's +-10 keys, an approach
+LIMIT_CYCLE_STEP_DEG = 40.0
+
+
+def pilot_limit_cycles(sim_p, speeds_mps=(1.0, 2.0, 3.0)):
+    """Speeds at which the fitted pilot, alone on the fitted boat, limit-cycles after a 40 deg
+    course change: [(speed m/s, swing deg)] (tune_pilot.limit_cycles). Checked on boats 1-40 of
+    tune_bench against the same simulation with the true values: 7 of the 8 (speed, boat) cases
+    that cycle found, none of the 112 that do not (docs/COMMISSIONING.md)."""
+    from .sim import params as P
+    from .tune_pilot import limit_cycles
+
+    p = P.load()
+    P.merge(p, json.loads(json.dumps(sim_p)))
+    return limit_cycles(p, speeds_mps, LIMIT_CYCLE_STEP_DEG)

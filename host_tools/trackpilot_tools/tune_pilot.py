@@ -39,3 +39,52 @@ def step_metrics(params, speed_mps, step_deg=10.0, seconds=25.0, dt=0.05):
         if t63 is None and h >= 0.63 * step_deg:
             t63 = (k + 1) * dt + delay
     return (t63 if t63 is not None else float("inf")), peak / step_deg - 1.0
+
+
+# a heading swing of this many degrees peak to peak, late after a course change, is a limit cycle
+# (in quiet water the fitted pilots that hold stayed under 8 deg; those that cycled swung 44-112)
+LIMIT_CYCLE_PP_DEG = 15.0
+
+
+def swing_after_step(params, speed_mps, step_deg=40.0, seconds=150.0, dt=0.05):
+    """The simulator's pilot holding a course step_deg off its heading on the simulator's boat,
+    quiet water (no wind, waves, current, compass noise or drift): the heading's peak-to-peak
+    swing over the last 60 s (deg). A large course change saturates the ram of a pilot whose gain
+    is high for its compass lag, and some never come out of it (docs/COMMISSIONING.md)."""
+    from .bench_robust import _NoBus
+    from .sim import stcodec
+    from .sim.boat import Boat, Environment
+    from .sim.randproc import component_rng
+    from .sim.st2000_sim import ST2000Sim
+
+    water = dict(params["water"], current_mps=0.0, current_walk_sd_mps=0.0, wave_yaw_rms_deg=0.0)
+    wind = dict(params["wind"], speed_mps=0.0, gust_sd_frac=0.0)
+    env = Environment(water, wind, component_rng(1, "environment"))
+    pp = dict(params["pilot"], compass_noise_deg=0.0, compass_drift_sd_deg=0.0, compass_offset_deg=0.0,
+              compass_dev_sin_deg=0.0, compass_dev_cos_deg=0.0)
+    boat = Boat(params["boat"], env, 0.0, 0.0, 0.0, u_mps=speed_mps, rpm=0.0)
+    boat.p = dict(params["boat"], surge_tau_s=1e9)
+    pil = ST2000Sim(pp, component_rng(1, "pilot"), None, _NoBus())
+    pil.mode = stcodec.MODE_AUTO
+    pil.course_deg = step_deg
+    lo, hi = float("inf"), float("-inf")
+    n = int(seconds / dt)
+    for k in range(n):
+        rud = pil.control_step(dt, boat.heading_deg())
+        boat.step(dt, rud, 0.0)
+        boat.u_mps = speed_mps
+        if (k + 1) * dt >= seconds - 60.0:
+            h = ((boat.psi_deg - step_deg + 180.0) % 360.0) - 180.0
+            lo, hi = min(lo, h), max(hi, h)
+    return round(hi - lo, 2)
+
+
+def limit_cycles(params, speeds_mps=(1.0, 2.0, 3.0), step_deg=40.0):
+    """[(speed m/s, swing deg)] where the pilot, as fitted, does not come out of a step_deg course
+    change (swing_after_step >= LIMIT_CYCLE_PP_DEG)."""
+    out = []
+    for u in speeds_mps:
+        pp = swing_after_step(params, u, step_deg)
+        if pp >= LIMIT_CYCLE_PP_DEG:
+            out.append((u, pp))
+    return out

@@ -422,3 +422,20 @@ def test_pilot_deadband_from_its_reports():
 def test_pilot_gain_not_claimed_without_large_errors():
     pg = F.fit_pilot_gain(_pilot_trial(2.0, 1.0, steps=(2, -2, 2, -2)), _EXACT_COMPASS, gnss_latency_s=0.0)
     assert pg["gain"] == 0.0 and pg["informative"] == 0 and "course steps" in pg["why"], pg
+
+
+def test_the_fitted_pilot_checked_for_a_limit_cycle():
+    """A pilot whose gain is high for its compass lag and slow ram (tune_bench's boat 26) does not
+    come out of a 40 deg course change at 3 m/s, but does at 1 m/s; a calmer one (boat 13) comes
+    out at every speed. Quiet water: the same numbers every time."""
+    cycles = F.pilot_limit_cycles({
+        "boat": {"k_prime": 1.18, "t_prime": 0.43, "rudder_lag_s": 0.5, "length_m": 5.0},
+        "pilot": {"kp_rudder_per_deg": 1.34, "kd_rudder_s": 0.66, "deadband_deg": 2.6,
+                  "rudder_rate_degps": 6.2, "compass_lag_s": 1.02}})
+    speeds = [u for u, _ in cycles]
+    assert 3.0 in speeds and 1.0 not in speeds, cycles
+    assert all(pp >= 15.0 for _, pp in cycles), cycles
+    assert F.pilot_limit_cycles({
+        "boat": {"k_prime": 1.43, "t_prime": 0.36, "rudder_lag_s": 0.12, "length_m": 5.0},
+        "pilot": {"kp_rudder_per_deg": 0.9, "kd_rudder_s": 1.15, "deadband_deg": 2.4,
+                  "rudder_rate_degps": 13.2, "compass_lag_s": 0.8}}) == []
