@@ -4,13 +4,15 @@ The trial measures the closed response of ST2000+ + boat to course steps (time t
 speeds, not the ST2000+'s own settings (gain, damping, deadband, ram speed: its control law is not
 published). tune's sweep draws those from the robust bench's spreads and keeps only pilots whose
 simulated steps on the drawn boat reach 63 % within a tolerance of the measured times (tune_sweep.py).
+The same quiet-water pilot, with the fitted settings, is checked for a limit cycle after a large
+course change at speeds the trial did not sail (tune_fit.pilot_limit_cycles).
 """
 
 
-
-def step_metrics(params, speed_mps, step_deg=10.0, seconds=25.0, dt=0.05):
-    """The simulator's pilot on the simulator's boat, calm, no noise: (t63 s, overshoot fraction)
-    after a course step of step_deg at t = 0 (plus the pilot's key delay)."""
+def _quiet(params, speed_mps, course_deg):
+    """The simulator's pilot in Auto, its course course_deg, on the simulator's boat at a held
+    speed, in quiet water: no wind, waves or current, a compass without noise, drift, offset or
+    deviation. Returns (pilot, boat, pilot parameters)."""
     from .bench_robust import _NoBus
     from .sim import stcodec
     from .sim.boat import Boat, Environment
@@ -26,7 +28,14 @@ def step_metrics(params, speed_mps, step_deg=10.0, seconds=25.0, dt=0.05):
     boat.p = dict(params["boat"], surge_tau_s=1e9)  # the speed held (the trial's steps run at a steady RPM)
     pil = ST2000Sim(pp, component_rng(1, "pilot"), None, _NoBus())
     pil.mode = stcodec.MODE_AUTO
-    pil.course_deg = step_deg
+    pil.course_deg = course_deg
+    return pil, boat, pp
+
+
+def step_metrics(params, speed_mps, step_deg=10.0, seconds=25.0, dt=0.05):
+    """The simulator's pilot on the simulator's boat, calm, no noise: (t63 s, overshoot fraction)
+    after a course step of step_deg at t = 0 (plus the pilot's key delay)."""
+    pil, boat, pp = _quiet(params, speed_mps, step_deg)
     delay = pp.get("key_delay_ms", 100) / 1000.0
     t63 = None
     peak = 0.0
@@ -40,7 +49,6 @@ def step_metrics(params, speed_mps, step_deg=10.0, seconds=25.0, dt=0.05):
             t63 = (k + 1) * dt + delay
     return (t63 if t63 is not None else float("inf")), peak / step_deg - 1.0
 
-
 # a heading swing of this many degrees peak to peak, late after a course change, is a limit cycle
 # (in quiet water the fitted pilots that hold stayed under 8 deg; those that cycled swung 44-112)
 LIMIT_CYCLE_PP_DEG = 15.0
@@ -51,22 +59,7 @@ def swing_after_step(params, speed_mps, step_deg=40.0, seconds=150.0, dt=0.05):
     quiet water (no wind, waves, current, compass noise or drift): the heading's peak-to-peak
     swing over the last 60 s (deg). A large course change saturates the ram of a pilot whose gain
     is high for its compass lag, and some never come out of it (docs/COMMISSIONING.md)."""
-    from .bench_robust import _NoBus
-    from .sim import stcodec
-    from .sim.boat import Boat, Environment
-    from .sim.randproc import component_rng
-    from .sim.st2000_sim import ST2000Sim
-
-    water = dict(params["water"], current_mps=0.0, current_walk_sd_mps=0.0, wave_yaw_rms_deg=0.0)
-    wind = dict(params["wind"], speed_mps=0.0, gust_sd_frac=0.0)
-    env = Environment(water, wind, component_rng(1, "environment"))
-    pp = dict(params["pilot"], compass_noise_deg=0.0, compass_drift_sd_deg=0.0, compass_offset_deg=0.0,
-              compass_dev_sin_deg=0.0, compass_dev_cos_deg=0.0)
-    boat = Boat(params["boat"], env, 0.0, 0.0, 0.0, u_mps=speed_mps, rpm=0.0)
-    boat.p = dict(params["boat"], surge_tau_s=1e9)
-    pil = ST2000Sim(pp, component_rng(1, "pilot"), None, _NoBus())
-    pil.mode = stcodec.MODE_AUTO
-    pil.course_deg = step_deg
+    pil, boat, _ = _quiet(params, speed_mps, step_deg)
     lo, hi = float("inf"), float("-inf")
     n = int(seconds / dt)
     for k in range(n):
