@@ -209,8 +209,11 @@ def report_text(fit, plots, args):
                      pg["ram_dps"], _pm(pg["deadband_deg"], pg["deadband_sd_deg"], "%.1f"), pg["scored"],
                      pg["rms_deg"]))
         if not fit.get("limit_cycles"):
+            from trackpilot_tools import tune_fit as F
+
             L.append("\nSimulated alone on the fitted boat in quiet water, the pilot as fitted comes out "
-                     "of a 40 deg course change at 1, 2 and 3 m/s (no limit cycle; tune_fit.pilot_limit_cycles).")
+                     "of a %.0f deg course change at %s m/s (no limit cycle; tune_fit.pilot_limit_cycles)." % (
+                         F.LIMIT_CYCLE_STEP_DEG, ", ".join("%g" % u for u in F.LIMIT_CYCLE_SPEEDS_MPS)))
     elif pg:
         L.append("\nThe pilot's own rudder gain: not identified from this trial (%s)." % pg.get("why", "?"))
     for rpm, peaks in sorted(zz["overshoot_deg"].items()):

@@ -401,21 +401,8 @@ def fit_compass(trial, gnss_latency_s=0.075):
 
 
 def _parabola_min(xs, ys, j):
-    """Minimum and curvature (d2y/dx2 / 2) of a parabola through the three points around j."""
-    j = min(max(j, 1), len(xs) - 2)
-    x0, x1, x2 = xs[j - 1], xs[j], xs[j + 1]
-    y0, y1, y2 = ys[j - 1], ys[j], ys[j + 1]
-    h = x1 - x0
-    a = (y0 - 2 * y1 + y2) / (2 * h * h)
-    if a <= 0:
-        return float(xs[j]), 0.0
-    xm = x1 - (y2 - y0) / (4 * a * h)
-    return float(min(max(xm, x0), x2)), float(a)
-
-
-def _parabola_min_any(xs, ys, j):
-    """_parabola_min on an uneven grid: the minimum and curvature (d2y/dx2 / 2) of the parabola
-    through the three points around j, the minimum kept between the outer two."""
+    """Minimum and curvature (d2y/dx2 / 2) of the parabola through the three points around j (the
+    grid may be uneven), the minimum kept between the outer two."""
     j = min(max(j, 1), len(xs) - 2)
     x0, x1, x2 = float(xs[j - 1]), float(xs[j]), float(xs[j + 1])
     y0, y1, y2 = float(ys[j - 1]), float(ys[j]), float(ys[j + 1])
@@ -1116,8 +1103,8 @@ def fit_pilot_gain(trial, comp, gnss_latency_s=0.075):
     The gain: the minimum of the profile (the best damping and deadband for each gain),
     interpolated on log gain, its 1-sigma from the profile's curvature widened for correlated
     errors. On the 40 simulated trials of boats 1-40 the gain came within 15 % on all 40 (median 3 %,
-    worst 13 %), the damping within 15 % on 21 (biased low), the deadband within 0.5 deg on 25
-    (the minimum of its own profile; 1-sigma at least PILOT_DEADBAND_SD_MIN_DEG; docs/COMMISSIONING.md).
+    worst 13 %), the damping within 15 % on 22 (biased low), the deadband within 0.5 deg on 25
+    (the minimum of its own profile on the uneven grid; 1-sigma at least PILOT_DEADBAND_SD_MIN_DEG; docs/COMMISSIONING.md).
     gain 0.0: not claimed (too few reports with a large error, or sd above PILOT_GAIN_SD_MAX)."""
     st = pilot_statuses(trial)
     if len(st) < 20:
@@ -1187,7 +1174,7 @@ def fit_pilot_gain(trial, comp, gnss_latency_s=0.075):
     xd, curv_d = _parabola_min(ld, prof_d, int(np.argmin(prof_d)))
     sd_d = math.sqrt(sigma2 * infl / curv_d) if curv_d > 0 else float("inf")
     prof_b = S3.min(axis=(0, 1))
-    xb, curv_b = _parabola_min_any(np.array(PILOT_DEADBANDS_DEG), prof_b, int(np.argmin(prof_b)))
+    xb, curv_b = _parabola_min(np.array(PILOT_DEADBANDS_DEG), prof_b, int(np.argmin(prof_b)))
     sd_b = max(PILOT_DEADBAND_SD_MIN_DEG, math.sqrt(sigma2 * infl / curv_b) if curv_b > 0 else float("inf"))
     out = dict(base, gain=float(math.exp(xg)), gain_sd=float(math.exp(xg) * sd_g),
                damping_s=float(math.exp(xd)), damping_sd_s=float(math.exp(xd) * sd_d),
@@ -1472,6 +1459,12 @@ def warnings(fit):
                 out.append("at %d RPM the pilot's heading still swung +-%.1f deg (1 sigma) about its "
                            "locked course at the end of those steps: if it keeps swinging on a steady "
                            "course, it hunts; lower its response/rudder gain" % (rpm, sw))
+    for u, pp in fit.get("limit_cycles", ()):
+        out.append("at %.0f m/s the pilot as fitted does not come out of a %.0f deg course change: simulated "
+                   "with its fitted gain, damping, deadband and ram on the fitted boat in quiet water, the "
+                   "heading still swings %.0f deg peak to peak after 90 s (its ram saturates). Lower its "
+                   "response/rudder gain before sailing that fast, or keep course changes small there"
+                   % (u, LIMIT_CYCLE_STEP_DEG, pp))
     return out
 
 
@@ -1495,25 +1488,20 @@ def fit_all(d, length_m=5.0, gnss_latency_s=0.075):
            "current": cur, "speed_map": sm, "compass": comp, "nomoto": nom, "circle": circ,
            "steps": steps, "zigzag": zz, "pilot_gain": pg, "current_drift": drift, "_trial": tr, "_u": u}
     fit["problems"] = uncertainty_problems(fit)
-    fit["warnings"] = warnings(fit)
     fit["config"], fit["margins"] = derive_guidance(nom, circ, steps, sm)
     fit["sim_params"] = sim_params(nom, comp, sm, pg)
     fit["limit_cycles"] = pilot_limit_cycles(fit["sim_params"]) if pg.get("gain", 0.0) > 0.0 else []
-    for u, pp in fit["limit_cycles"]:
-        fit["warnings"].append(
-            "at %.0f m/s the pilot as fitted does not come out of a %.0f deg course change: simulated "
-            "with its fitted gain, damping, deadband and ram on the fitted boat in quiet water, the "
-            "heading still swings %.0f deg peak to peak after 90 s (its ram saturates). Lower its "
-            "response/rudder gain before sailing that fast, or keep course changes small there"
-            % (u, LIMIT_CYCLE_STEP_DEG, pp))
+    fit["warnings"] = warnings(fit)
     return fit
 
 
-# the course change the pilot-alone check asks for: a corner, a person's +-10 keys, an approach
+# the course change the pilot-alone check asks for (a corner, a person's +-10 keys, an approach),
+# and the speeds it is asked at (the robust bench's goal speeds: beyond the trial's two)
 LIMIT_CYCLE_STEP_DEG = 40.0
+LIMIT_CYCLE_SPEEDS_MPS = (1.0, 2.0, 3.0)
 
 
-def pilot_limit_cycles(sim_p, speeds_mps=(1.0, 2.0, 3.0)):
+def pilot_limit_cycles(sim_p, speeds_mps=LIMIT_CYCLE_SPEEDS_MPS):
     """Speeds at which the fitted pilot, alone on the fitted boat, limit-cycles after a 40 deg
     course change: [(speed m/s, swing deg)] (tune_pilot.limit_cycles). Checked on boats 1-40 of
     tune_bench against the same simulation with the true values: 7 of the 8 (speed, boat) cases

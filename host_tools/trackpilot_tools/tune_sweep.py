@@ -6,8 +6,8 @@ What is drawn (per boat, from its seed):
 - identified, around the fit (normal, 1 sigma): K', T', the rudder dead time (as the flow lag),
   the compass lag; the pilot's rudder gain when the trial identified it (1 sigma taken as 10 %:
   its error over simulated trials, docs/COMMISSIONING.md), with its ram speed as measured, and
-  its damping (log-normal, KD_LOG_SD: identified only roughly) and its deadband (normal,
-  DEADBAND_SD_DEG); the compass offset/deviation, the RPM -> speed map and the current as fitted;
+  its damping (log-normal, KD_LOG_SD: identified only roughly) and its deadband (normal, its
+  stated 1 sigma); the compass offset/deviation, the RPM -> speed map and the current as fitted;
 - not identified by the trial (the ST2000+'s ram speed unless measured,
   key delay, the compass's noise, wind, waves, GNSS latency): drawn from the robust bench's spreads
   (sim/boat_params.json),
@@ -27,7 +27,6 @@ SPEEDS = BR.GOAL_SPEEDS
 T63_TOLERANCE = 0.2
 MAX_TRIES = 60
 KD_LOG_SD = 0.35  # the pilot's damping drawn around the fitted one: x0.70..1.42 at 1 sigma
-DEADBAND_SD_DEG = 0.45  # the pilot's deadband drawn around the fitted one (tune_fit.PILOT_DEADBAND_SD_MIN_DEG)
 
 
 def measured_t63(fit):
@@ -92,13 +91,13 @@ def _draw_one(fit, seed, attempt):
         flat["pilot.kp_rudder_per_deg"] = p["pilot"]["kp_rudder_per_deg"]
     kd = sp.get("pilot", {}).get("kd_rudder_s")
     if kd:
-        # identified only roughly (|error| median 12 %, p90 43 % on 40 simulated trials): wide
+        # identified only roughly (|error| median 12 %, p90 56 % on 40 simulated trials): wide
         p["pilot"]["kd_rudder_s"] = min(5.0, max(0.1, kd * math.exp(rng.gauss(0.0, KD_LOG_SD))))
         flat["pilot.kd_rudder_s"] = p["pilot"]["kd_rudder_s"]
     db = sp.get("pilot", {}).get("deadband_deg")
     if db is not None:
-        # identified roughly too (1 sigma 0.45 deg: the method's spread on 40 simulated trials)
-        p["pilot"]["deadband_deg"] = min(3.5, max(0.25, rng.gauss(db, DEADBAND_SD_DEG)))
+        # identified roughly too: its stated 1 sigma is at least the method's spread (0.45 deg)
+        p["pilot"]["deadband_deg"] = min(3.5, max(0.25, rng.gauss(db, fit["pilot_gain"]["deadband_sd_deg"])))
         flat["pilot.deadband_deg"] = p["pilot"]["deadband_deg"]
     p["water"]["current_mps"] = cur["speed_mps"]
     p["water"]["current_dir_deg"] = cur["to_deg"]

@@ -389,7 +389,7 @@ _EXACT_COMPASS = {"lag_s": 0.5, "offset_deg": 0.0, "dev_sin_deg": 0.0, "dev_cos_
 
 def test_pilot_gain_from_its_reports():
     """The gain within 10 % (measured 0.87 / 1.48 / 2.29 / 2.08), the damping within 30 % (1.44 /
-    0.90 / 0.75 / 1.83 s: it trades with the deadband and the trim), the ram's speed
+    0.90 / 0.73 / 1.80 s: it trades with the deadband and the trim), the ram's speed
     within 25 % (a low gain seldom drives the ram at its full speed for a second: 7.0 for 9.0
     deg/s, the others exact); the stated 1-sigma of the gain below 10 %."""
     for gain, damping_s, ram in ((0.9, 1.5, 9.0), (1.5, 1.0, 7.0), (2.3, 0.8, 12.0), (2.0, 1.8, 6.0)):
