@@ -83,7 +83,7 @@ def decode_bytes(data, name="", into=None):
                 rec.t_s = 0.0
             else:
                 dt = ticks_diff(rec.t_ms, clock[1])
-                if rec.type == "control" and not -1000 < dt < 3600000:
+                if dt <= -1000 or (rec.type == "control" and dt >= 3600000):
                     dt = 0  # another session (ticks restarted): continue the time axis
                 rec.t_s = clock[0] + dt / 1000.0
             if rec.type == "control" or clock is None:
@@ -104,8 +104,14 @@ def decode_bytes(data, name="", into=None):
 
 def decode_files(paths):
     """Decode log files (sorted into session/part order) into one Decoded. Raises LogError."""
+    return decode_files_in_order(sorted(paths, key=session_key))
+
+
+def decode_files_in_order(paths):
+    """decode_files without the sorting, for files whose names do not tell their order (two
+    folders, each with its own 0001-00.tpl): in the order the caller knows they were written."""
     d = Decoded()
-    for p in sorted(paths, key=session_key):
+    for p in paths:
         try:
             with open(p, "rb") as f:
                 data = f.read()

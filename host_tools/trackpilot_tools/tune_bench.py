@@ -23,31 +23,40 @@ def truth_of(p):
             "rudder_limit_deg": pl["rudder_limit_deg"], "length_m": b["length_m"]}
 
 
-def one_boat(seed, out_dir, trial_cfg=None):
-    """Sail the trial on boat `seed`, fit it; a row of fitted vs true values."""
+def one_boat(seed, out_dir, trial_cfg=None, noise_offset=0):
+    """Sail the trial on boat `seed`, fit it; a row of fitted vs true values. noise_offset: the
+    simulator's noise seed is seed + noise_offset (0: the bench's own trial; another value: the
+    same boat's trial on another day: its own waves, gusts, current walk and sensor noise)."""
     from trackpilot_tools.sim import params as pm
     from trackpilot_tools.sim.runner import SimRun
 
     spread = pm.load_spread()
     over, flat = pm.draw_spread(seed, spread, pm.load())
     out = Path(out_dir) / ("boat%03d" % seed)
-    run = SimRun(TRACK, out, seed=seed, scenario="calm", overrides=over, duration_s=900, trial=True,
+    run = SimRun(TRACK, out, seed=seed + noise_offset, scenario="calm", overrides=over, duration_s=900, trial=True,
                  fw_config={"trial": trial_cfg} if trial_cfg else None)
     run.run()
     row = {"seed": seed, "drawn": flat, "sim_stop": run.stop_reason}
     return fit_boat(row, out, run.p)
 
 
-def fit_boat(row, out, params):
-    """Fit the trial log in `out` (fw/log) and compare with the simulator's parameters."""
+def fit_boat(row, out, params, more=()):
+    """Fit the trial log in `out` (fw/log) and compare with the simulator's parameters. more:
+    folders of the same boat's other trials (tune_bench --noise-offset), pooled with it
+    (tune_pool) in the order given, `out`'s last."""
     from trackpilot_tools import logdecode
     from trackpilot_tools import tune_fit as F
+    from trackpilot_tools import tune_pool as TP
 
     truth = truth_of(params)
     row["truth"] = truth
     try:
-        d = logdecode.decode_files(sorted((out / "fw" / "log").glob("*.tpl")))
-        fit = F.fit_all(d)
+        files = [f for o in list(more) + [out] for f in sorted((Path(o) / "fw" / "log").glob("*.tpl"))]
+        d = logdecode.decode_files_in_order(files)
+        fit = TP.fit_trials(d)
+        # `out`'s own time axis (its truth.csv) against the pooled log's
+        mine = str(sorted((Path(out) / "fw" / "log").glob("*.tpl"))[0])
+        shift_s = min(r.t_s for r in d.controls + d.events if r.file == mine)
     except F.TuneError as e:
         row["refused"] = str(e)
         return row
@@ -70,12 +79,12 @@ def fit_boat(row, out, params):
     row["sd"]["pilot_deadband_deg"] = fit["pilot_gain"].get("deadband_sd_deg", float("inf"))
     row["sd"]["pilot_gain"] = fit["pilot_gain"].get("gain_sd", float("inf"))
     row["refusals"] = fit["problems"]
-    _more_truth(row, out, params, fit)
+    _more_truth(row, out, params, fit, shift_s)
     (Path(out) / "tune_config.json").write_text(json.dumps(fit["config"], indent=1))
     return row
 
 
-def _more_truth(row, out, params, fit):
+def _more_truth(row, out, params, fit, shift_s=0.0):
     """The fitted compass offset and deviation, RPM -> water speed map and current beside what the
     simulator sailed: the offset as the compass showed it over the trial (its drawn offset plus its
     slow drift, against the true heading put through the compass's own lag), the speed from the
@@ -96,7 +105,7 @@ def _more_truth(row, out, params, fit):
     path = Path(out) / "truth.csv"
     if not path.is_file():
         return
-    t0 = fit["trial"]["start_s"]
+    t0 = fit["trial"]["start_s"] - shift_s
     circles = [(t0 + a, t0 + z) for kind, a, z in fit["trial"]["manoeuvres"] if kind == "circle"]
     off, ce, cn = [], [], []
     lag_s = pl["compass_lag_s"]
@@ -212,8 +221,12 @@ def main(argv=None):
     ap.add_argument("--out", default="tune_bench_out")
     ap.add_argument("--refit", action="store_true",
                     help="fit the trials already sailed in --out again (after a change of the fit)")
+    ap.add_argument("--pool", action="append", default=[], metavar="DIR",
+                    help="with --refit: pool each boat's trial with its trial in DIR (sailed with --noise-offset)")
     ap.add_argument("--compare", action="store_true",
                     help="sail the accepted boats (tune_refit.json) with the tuned and the default configuration")
+    ap.add_argument("--noise-offset", type=int, default=0, metavar="K",
+                    help="sail with the noise seed boat + K: the same boats' trials on another day (for pooling)")
     ap.add_argument("--trial-set", action="append", default=[], metavar="KEY=VALUE",
                     help="a key of the firmware's trial section for the sail (e.g. circle_low_turns=1)")
     args = ap.parse_args(argv)
@@ -239,15 +252,18 @@ def main(argv=None):
         for d in sorted(Path(args.out).glob("boat[0-9][0-9][0-9]")):
             if not (d / "sim_params.json").is_file() or not list((d / "fw" / "log").glob("*.tpl")):
                 continue
-            row = fit_boat({"seed": int(d.name[4:])}, d, json.loads((d / "sim_params.json").read_text()))
+            more = [Path(p) / d.name for p in args.pool]
+            if not all((m / "fw" / "log").is_dir() for m in more):
+                continue
+            row = fit_boat({"seed": int(d.name[4:])}, d, json.loads((d / "sim_params.json").read_text()), more)
             rows.append(row)
             print(json.dumps({k: row.get(k) for k in ("seed", "fit", "truth", "refused", "refusals")}), flush=True)
-        (Path(args.out) / "tune_refit.json").write_text(json.dumps(rows, indent=1))
+        (Path(args.out) / ("tune_refit_pooled.json" if args.pool else "tune_refit.json")).write_text(json.dumps(rows, indent=1))
         print(table(rows))
         return 0
     Path(args.out).mkdir(parents=True, exist_ok=True)
     for seed in range(args.first, args.first + args.n):
-        row = one_boat(seed, args.out, trial_cfg)
+        row = one_boat(seed, args.out, trial_cfg, args.noise_offset)
         rows.append(row)
         print(json.dumps({k: row.get(k) for k in ("seed", "fit", "truth", "refused")}), flush=True)
         (Path(args.out) / "tune_bench.json").write_text(json.dumps(rows, indent=1))

@@ -52,6 +52,7 @@ def _clean(o):
 def run(args):
     from trackpilot_tools import logdecode
     from trackpilot_tools import tune_fit as F
+    from trackpilot_tools import tune_pool as P
     from trackpilot_tools.outdir import fresh_output
 
     for p in args.logs:
@@ -66,11 +67,16 @@ def run(args):
     except logdecode.LogError as e:
         raise UserError(str(e))
     try:
-        fit = F.fit_all(d, args.length_m, args.gnss_latency_ms / 1000.0)
+        fit = P.fit_trials(d, args.length_m, args.gnss_latency_ms / 1000.0)
     except F.TuneError as e:
         raise UserError("cannot tune from this log: %s" % e)
     if fit["problems"] and not args.force:
-        raise UserError("fits too uncertain to use: " + "; ".join(fit["problems"]) +
+        hint = ""
+        if any(not p.startswith(("the pilot hunted", "trial ")) for p in fit["problems"]):
+            # each trial's own noise and current walk: pooled, a second trial narrows them
+            hint = (" Every complete trial in the logs given is fitted and pooled: a second whole trial "
+                    "with this one usually brings them within the limits.")
+        raise UserError("fits too uncertain to use: " + "; ".join(fit["problems"]) + "." + hint +
                         " (--force writes the configuration anyway)")
     err = _config_errors(fit["config"])
     if err:
@@ -126,6 +132,33 @@ def _pm(v, sd, fmt="%.3g"):
     return (fmt + " +- " + fmt) % (v, sd)
 
 
+def _pooled_lines(pooled):
+    """The report's account of pooled trials (tune_pool): what each gave, what was left out."""
+    if not pooled:
+        return []
+    L = []
+    for n, why in pooled.get("skipped", ()):
+        L.append("Trial %d of the logs not used: %s.\n" % (n, why))
+    if pooled["trials"] < 2:
+        return L
+    L.append("## %d trials pooled\n" % pooled["trials"])
+    L.append("Each trial fitted alone, then weighted by its inverse variance; where the trials disagree "
+             "beyond their uncertainties the pooled one is widened by the Birge ratio (below). The "
+             "plots, the current and the compass offset are the last trial's.\n")
+    L.append("| trial | start s | K' | T' | turning radius m | compass lag s | pilot gain | alone |")
+    L.append("|---|---|---|---|---|---|---|---|")
+    for t in pooled["per_trial"]:
+        L.append("| %d | %.0f | %s | %s | %s | %s | %s | %s |" % (
+            t["trial"], t["start_s"], _pm(t["k_prime"], t["k_prime_sd"]), _pm(t["t_prime"], t["t_prime_sd"]),
+            _pm(t["radius_m"], t["radius_sd_m"], "%.2f"), _pm(t["compass_lag_s"], t["compass_lag_sd_s"], "%.2f"),
+            ("%.2f" % t["pilot_gain"]) if t["pilot_gain"] > 0 else "not claimed",
+            "; ".join(t["problems"]) if t["problems"] else "usable"))
+    wide = ["%s x%.2f" % (k, b) for k, b in sorted(pooled["birge"].items()) if b > 1.0]
+    L.append("\nBirge ratio (the pooled 1 sigma widened where the trials disagree): %s.\n" % (
+        ", ".join(wide) if wide else "none needed"))
+    return L
+
+
 def report_text(fit, plots, args):
     n, c, ci, cur, sm, st, zz = (fit["nomoto"], fit["compass"], fit["circle"], fit["current"],
                                  fit["speed_map"], fit["steps"], fit["zigzag"])
@@ -138,6 +171,7 @@ def report_text(fit, plots, args):
         L.append("**TOO UNCERTAIN (written with --force):** " + "; ".join(fit["problems"]) + "\n")
     for w in fit.get("warnings", ()):
         L.append("Note: %s.\n" % w)
+    L.extend(_pooled_lines(fit.get("pooled")))
     L.append("## Boat (Nomoto, L = %.1f m)\n" % n["length_m"])
     L.append("| quantity | value |\n|---|---|")
     L.append("| K' | %s |" % _pm(n["k_prime"], n["k_prime_sd"]))

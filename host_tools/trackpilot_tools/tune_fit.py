@@ -35,32 +35,54 @@ def wrap180(a):
 
 
 # --------------------------------------------------------------------------- the trial in the log
-def trial_from_decoded(d):
-    """Decoded log -> {"t0", "t1", "segments": [(kind, t0, t1, info)], arrays...}. TuneError when
-    the log has no complete trial."""
+def _trial_events(d):
+    """(the TRIAL events as (t_s, text), [(begin index, end index or None, why it did not
+    complete or None)] of every trial begun, in log order). TuneError when the log has no trial
+    at all or none that completed."""
     ev = [(e.t_s, e.text) for e in d.events if e.kind == "TRIAL"]
     begins = [i for i, (_, txt) in enumerate(ev) if txt.startswith("begin")]
     if not begins:
         raise TuneError("no commissioning trial in the log (no TRIAL events): sail one "
                         "(docs/COMMISSIONING.md) and give its log")
-    # the last complete trial
-    done = None
-    for b in reversed(begins):
+    trials = []
+    for b in begins:
+        end, why = None, "the log stops before the trial ended"
         for j in range(b + 1, len(ev)):
             if ev[j][1].startswith("begin"):
+                why = "a new trial began before it ended"
                 break
             if ev[j][1].startswith("end"):
                 if ev[j][1].startswith("end end"):
-                    done = (b, j)
+                    end, why = j, None
+                else:
+                    why = ev[j][1][4:]
                 break
-        if done:
-            break
-    if done is None:
-        last_end = [txt for _, txt in ev if txt.startswith("end")]
-        why = last_end[-1][4:] if last_end else "the log stops before the trial ended"
+        trials.append((b, end, why))
+    if all(j is None for _, j, _ in trials):
         raise TuneError("the trial did not complete (%s): sail the whole trial again; tune needs "
-                        "every manoeuvre of one trial" % why)
-    b, j = done
+                        "every manoeuvre of one trial" % trials[-1][2])
+    return ev, trials
+
+
+def trial_from_decoded(d):
+    """Decoded log -> its last complete trial: {"t0", "t1", "segments": [(kind, t0, t1, info)],
+    arrays...}. TuneError when the log has no complete trial."""
+    ev, trials = _trial_events(d)
+    b, j, _ = [t for t in trials if t[1] is not None][-1]
+    return _cut_trial(d, ev, b, j)
+
+
+def trials_from_decoded(d):
+    """Every trial begun in a decoded log, in log order: (its number from 1, the trial as
+    trial_from_decoded gives it, or None with why it did not complete). TuneError when none
+    completed."""
+    ev, trials = _trial_events(d)
+    return [(n + 1, _cut_trial(d, ev, b, j) if j is not None else None, why)
+            for n, (b, j, why) in enumerate(trials)]
+
+
+def _cut_trial(d, ev, b, j):
+    """The trial between TRIAL events b (its begin) and j (its end end) as trial_from_decoded's dict."""
     t0, t1 = ev[b][0], ev[j][0]
     segs = []
     open_ = None
@@ -1373,8 +1395,9 @@ UNCERTAINTY_LIMITS = (
 HUNT_HINT_SD_DEG = 3.0
 
 
-def uncertainty_problems(fit):
-    """Fits too uncertain to use, each with the manoeuvre to sail again."""
+def uncertainty_problems(fit, pooled=0):
+    """Fits too uncertain to use, each with the manoeuvre to sail again. pooled: the number of
+    trials pooled into `fit` (tune_pool), whose advice is another whole trial."""
     out = []
     for part, sd_key, rel_key, lim, name, redo in UNCERTAINTY_LIMITS:
         sd = fit[part][sd_key]
@@ -1384,7 +1407,10 @@ def uncertainty_problems(fit):
             shown = ("+-%.*f %%" % (1 if round(100 * v) == round(100 * lim) else 0, 100 * v)) if rel_key else ("+-%.2f" % sd)
             limit = ("%.0f %%" % (100 * lim)) if rel_key else ("%.2f" % lim)
             why = _current_cause(fit, part, rel_key, lim) if rel_key else None
-            if why:
+            if pooled > 1:
+                out.append("%s too uncertain with %d trials pooled (%s, 1 sigma, limit %s): sail one more "
+                           "whole trial and give tune every trial's log" % (name, pooled, shown, limit))
+            elif why:
                 out.append("%s too uncertain (%s, 1 sigma, limit %s; %s" % (name, shown, limit, why))
             else:
                 out.append("%s too uncertain (%s, 1 sigma, limit %s): repeat %s" % (name, shown, limit, redo))
@@ -1468,10 +1494,11 @@ def warnings(fit):
     return out
 
 
-def fit_all(d, length_m=5.0, gnss_latency_s=0.075):
-    """Every fit of a decoded log's last complete trial, the derived configuration and the list of
-    fits too uncertain to use. TuneError when a manoeuvre is missing."""
-    tr = trial_from_decoded(d)
+def fit_all(d, length_m=5.0, gnss_latency_s=0.075, trial=None):
+    """Every fit of a decoded log's last complete trial (or of `trial`, one of
+    trials_from_decoded's), the derived configuration and the list of fits too uncertain to use.
+    TuneError when a manoeuvre is missing."""
+    tr = trial if trial is not None else trial_from_decoded(d)
     cur = fit_current(tr)
     u = water_speed(tr, cur)
     sm = fit_speed_map(tr, u)

@@ -52,6 +52,7 @@ def test_trial_tune_sim(trial_run, tmp_path, capsys):
     # the pilot's own loop from its reports (tune_fit.fit_pilot_gain), into the simulator's pilot
     assert fit["pilot_gain"]["gain"] == pytest.approx(truth["pilot"]["kp_rudder_per_deg"], rel=0.15), fit["pilot_gain"]
     assert fit["pilot_gain"]["damping_s"] == pytest.approx(truth["pilot"]["kd_rudder_s"], rel=0.5), fit["pilot_gain"]
+    assert "pooled" not in fit  # one trial: nothing pooled
     cfg = json.loads((tmp_path / "tune" / "config.json").read_text())
     assert cfg["boat"]["min_turn_radius_m"] > 5
     # the simulator sails the fitted boat with the tuned configuration
@@ -67,6 +68,51 @@ def test_trial_tune_sim(trial_run, tmp_path, capsys):
     summ = json.loads((tmp_path / "sim" / "summary.json").read_text())
     text = json.dumps(summ)
     assert "AUTO" in text
+
+
+def test_two_trials_are_pooled(trial_run, tmp_path, capsys):
+    """The same boat's trial sailed again (another day's waves, gusts, current walk and noise), its
+    log in a folder of its own (the flash numbered it 0001 again): tune fits each, pools them, and
+    says so; the pooled T' is narrower than either trial's and between them."""
+    from trackpilot_tools import logdecode
+    from trackpilot_tools import tune_fit as F
+
+    run, logs = trial_run
+    out2 = tmp_path / "day2"
+    again = SimRun(TRACK, out2, seed=1003, scenario="calm", duration_s=700, trial=True)
+    again.run()
+    logs2 = sorted((out2 / "fw" / "log").glob("*.tpl"))
+    assert again.trial_seen and [p.name for p in logs2] == [p.name for p in logs]
+    rc = _cli(["tune", *map(str, logs), *map(str, logs2), "--out", str(tmp_path / "tune"), "--no-plots"])
+    assert rc == 0, capsys.readouterr().err
+    fit = json.loads((tmp_path / "tune" / "fit.json").read_text())
+    pooled = fit["pooled"]
+    assert pooled["trials"] == 2 and pooled["used"] == [1, 2] and not pooled["skipped"]
+    singles = [F.fit_all(logdecode.decode_files(x)) for x in (logs, logs2)]
+    t_primes = sorted(f["nomoto"]["t_prime"] for f in singles)
+    assert [t["t_prime"] for t in pooled["per_trial"]] == pytest.approx([f["nomoto"]["t_prime"] for f in singles])
+    assert t_primes[0] <= fit["nomoto"]["t_prime"] <= t_primes[1]
+    assert fit["nomoto"]["t_prime_sd"] < min(f["nomoto"]["t_prime_sd"] for f in singles) * pooled["birge"]["t_prime"]
+    assert fit["nomoto"]["t_prime"] == pytest.approx(run.p["boat"]["t_prime"], rel=0.15)
+    # the current and the compass offset are the last trial's; the configuration validates
+    assert fit["current"]["speed_mps"] == pytest.approx(singles[1]["current"]["speed_mps"])
+    assert json.loads((tmp_path / "tune" / "config.json").read_text())["boat"]["min_turn_radius_m"] > 5
+    report = (tmp_path / "tune" / "report.md").read_text()
+    assert "2 trials pooled" in report and "Birge ratio" in report
+    # a cut second trial is left out, with a note, and the first one fitted alone
+    data = b"".join(p.read_bytes() for p in logs2)
+    d2 = logdecode.decode_files(logs2)
+    end = [e for e in d2.events if e.kind == "TRIAL" and e.text.startswith("end")][0]
+    cut = tmp_path / "cut" / "0001-00.tpl"
+    cut.parent.mkdir()
+    cut.write_bytes(data[:end.offset])
+    rc = _cli(["tune", *map(str, logs), str(cut), "--out", str(tmp_path / "tune1"), "--no-plots"])
+    assert rc == 0, capsys.readouterr().err
+    fit1 = json.loads((tmp_path / "tune1" / "fit.json").read_text())
+    assert fit1["pooled"]["trials"] == 1 and fit1["pooled"]["used"] == [1]
+    assert [n for n, _ in fit1["pooled"]["skipped"]] == [2]
+    assert fit1["nomoto"]["t_prime"] == pytest.approx(singles[0]["nomoto"]["t_prime"])  # as alone
+    assert "Trial 2 of the logs not used: it did not complete" in (tmp_path / "tune1" / "report.md").read_text()
 
 
 def test_tune_bench_checks_everything_the_trial_identifies(trial_run):

@@ -439,3 +439,22 @@ def test_the_fitted_pilot_checked_for_a_limit_cycle():
         "boat": {"k_prime": 1.43, "t_prime": 0.36, "rudder_lag_s": 0.12, "length_m": 5.0},
         "pilot": {"kp_rudder_per_deg": 0.9, "kd_rudder_s": 1.15, "deadband_deg": 2.4,
                   "rudder_rate_degps": 13.2, "compass_lag_s": 0.8}}) == []
+
+
+def test_pooling_weighs_by_inverse_variance_and_widens_on_disagreement():
+    """tune_pool.pool: two trials that agree within their sigmas pool to the inverse-variance mean
+    with a narrower sigma; two that disagree get the Birge ratio's wider one; a trial without a
+    sigma does not count beside one with."""
+    from trackpilot_tools.tune_pool import pool
+
+    m, sd, b = pool([1.0, 1.1], [0.1, 0.2])
+    assert m == pytest.approx((1.0 / 0.01 + 1.1 / 0.04) / (1 / 0.01 + 1 / 0.04))
+    assert sd == pytest.approx(1.0 / math.sqrt(1 / 0.01 + 1 / 0.04)) and b == 1.0
+    m, sd, b = pool([1.0, 2.0], [0.1, 0.1])  # 7 sigma apart
+    assert m == pytest.approx(1.5)
+    assert b == pytest.approx(math.sqrt(((0.5 / 0.1) ** 2) * 2)) and sd == pytest.approx(0.1 / math.sqrt(2) * b)
+    assert sd == pytest.approx(0.5)  # the standard error of two values 1 apart: their disagreement
+    m, sd, b = pool([1.0, 5.0], [0.1, float("nan")])
+    assert (m, sd, b) == (1.0, 0.1, 1.0)
+    m, sd, b = pool([1.0, 3.0], [float("nan"), float("nan")])  # none has one: the mean, its standard error
+    assert m == 2.0 and sd == pytest.approx(1.0)
