@@ -19,7 +19,7 @@ from trackpilot_tools.errors import UserError
 
 
 def add_parser(p):
-    p.add_argument("logs", nargs="+", metavar="LOG", help="firmware log files (.tpl) of the trial")
+    p.add_argument("logs", nargs="+", metavar="LOG", help="firmware log files (.tpl) of the trial; of several trials (in the order sailed): each fitted, then pooled")
     p.add_argument("--out", default="tune_out", help="output folder (default tune_out)")
     p.add_argument("--length-m", type=float, default=5.0, help="the boat's length for K', T' (default 5.0)")
     p.add_argument("--gnss-latency-ms", type=float, default=75.0,

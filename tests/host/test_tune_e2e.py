@@ -76,6 +76,7 @@ def test_two_trials_are_pooled(trial_run, tmp_path, capsys):
     says so; the pooled T' is narrower than either trial's and between them."""
     from trackpilot_tools import logdecode
     from trackpilot_tools import tune_fit as F
+    from trackpilot_tools import tune_pool as TP
 
     run, logs = trial_run
     out2 = tmp_path / "day2"
@@ -92,7 +93,12 @@ def test_two_trials_are_pooled(trial_run, tmp_path, capsys):
     t_primes = sorted(f["nomoto"]["t_prime"] for f in singles)
     assert [t["t_prime"] for t in pooled["per_trial"]] == pytest.approx([f["nomoto"]["t_prime"] for f in singles])
     assert t_primes[0] <= fit["nomoto"]["t_prime"] <= t_primes[1]
-    assert fit["nomoto"]["t_prime_sd"] < min(f["nomoto"]["t_prime_sd"] for f in singles) * pooled["birge"]["t_prime"]
+    # its 1 sigma: the trials' inverse-variance one (x the Birge ratio), with their shared part added back
+    rel = [f["nomoto"]["t_prime_sd"] / f["nomoto"]["t_prime"] for f in singles]
+    ivw = pooled["birge"]["t_prime"] / math.sqrt(sum(1.0 / (r * r) for r in rel))
+    want = math.sqrt(ivw ** 2 + TP.SHARED_REL["t_prime"] ** 2 / 2)
+    assert fit["nomoto"]["t_prime_sd"] / fit["nomoto"]["t_prime"] == pytest.approx(want, rel=1e-6)
+    assert want < max(rel) or pooled["birge"]["t_prime"] > 1.0
     assert fit["nomoto"]["t_prime"] == pytest.approx(run.p["boat"]["t_prime"], rel=0.15)
     # the current and the compass offset are the last trial's; the configuration validates
     assert fit["current"]["speed_mps"] == pytest.approx(singles[1]["current"]["speed_mps"])
