@@ -72,7 +72,8 @@ def run(args):
         raise UserError("cannot tune from this log: %s" % e)
     if fit["problems"] and not args.force:
         hint = ""
-        if any(not p.startswith(("the pilot hunted", "trial ")) for p in fit["problems"]):
+        if (fit.get("pooled") or {}).get("trials", 1) < 2 and any(
+                not p.startswith(("the pilot hunted", "trial ")) for p in fit["problems"]):
             # each trial's own noise and current walk: pooled, a second trial narrows them
             hint = (" Every complete trial in the logs given is fitted and pooled: a second whole trial "
                     "with this one usually brings them within the limits.")
@@ -165,8 +166,13 @@ def report_text(fit, plots, args):
     mg = fit["margins"]
     L = []
     L.append("# Commissioning trial: fit and tuned configuration\n")
-    L.append("Logs: %s  \nTrial: %.0f s, %d manoeuvres. Uncertainties are 1 sigma.\n" % (
-        ", ".join(args.logs), fit["trial"]["duration_s"], len(fit["trial"]["manoeuvres"])))
+    pooled = fit.get("pooled") or {}
+    if pooled.get("trials", 1) > 1:
+        L.append("Logs: %s  \nTrials: %d pooled (%s s). Uncertainties are 1 sigma.\n" % (
+            ", ".join(args.logs), pooled["trials"], ", ".join("%.0f" % t["duration_s"] for t in pooled["per_trial"])))
+    else:
+        L.append("Logs: %s  \nTrial: %.0f s, %d manoeuvres. Uncertainties are 1 sigma.\n" % (
+            ", ".join(args.logs), fit["trial"]["duration_s"], len(fit["trial"]["manoeuvres"])))
     if fit["problems"]:
         L.append("**TOO UNCERTAIN (written with --force):** " + "; ".join(fit["problems"]) + "\n")
     for w in fit.get("warnings", ()):
