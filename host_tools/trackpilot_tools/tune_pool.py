@@ -123,17 +123,14 @@ def pool_fits(numbered_fits, n_trials=None, skipped=()):
     for key in ("k_prime", "t_prime"):
         v, s, b = _pool_log([f["nomoto"][key] for f in fits], [f["nomoto"][key + "_sd"] for f in fits])
         nom[key], nom[key + "_sd"], birge[key] = v, v * _with_shared(s / v, SHARED_REL[key], n), b
-        nom.pop(key + "_sd_fit", None)
-    lag_keys = ("dead_time_s", "rudder_lag_s") if "dead_time_s" in nom else ("rudder_lag_s",)
-    for key in lag_keys:
-        sd_key = key[:-2] + "_sd_s"
-        v, s, b = pool([f["nomoto"][key] for f in fits], [f["nomoto"][sd_key] for f in fits])
-        nom[key], nom[sd_key] = v, s
-        birge[key] = b
-    if "dead_time_s" in nom:
-        nom["rudder_lag_s"] = max(0.0, nom["dead_time_s"])
-    # the current's part is in each trial's sd; its causes belong to one trial each
-    nom.pop("current_uncertainty", None)
+    key = "dead_time_s" if "dead_time_s" in nom else "rudder_lag_s"
+    sd_key = key[:-2] + "_sd_s"
+    nom[key], nom[sd_key], birge[key] = pool([f["nomoto"][key] for f in fits], [f["nomoto"][sd_key] for f in fits])
+    if key == "dead_time_s":  # the simulator's flow lag, as fit_nomoto gives it
+        nom["rudder_lag_s"], nom["rudder_lag_sd_s"] = max(0.0, nom["dead_time_s"]), nom["dead_time_sd_s"]
+    # the current's part is in each trial's sd; its split and causes belong to one trial each
+    for k in [k for k in nom if "_sd_fit" in k or k.endswith("_sd_current") or k == "current_uncertainty"]:
+        nom.pop(k)
     nom["windows"] = sum(f["nomoto"]["windows"] for f in fits)
 
     circ = copy.copy(last["circle"])
