@@ -195,5 +195,23 @@ def pool_fits(numbered_fits, n_trials=None, skipped=()):
     fit["config"], fit["margins"] = F.derive_guidance(nom, circ, steps, sm)
     fit["sim_params"] = F.sim_params(nom, comp, sm, pg)
     fit["limit_cycles"] = F.pilot_limit_cycles(fit["sim_params"]) if pg.get("gain", 0.0) > 0.0 else []
-    fit["warnings"] = F.warnings(fit)
+    fit["warnings"] = F.warnings(fit) + disagreements(birge)
     return fit
+
+
+# a Birge ratio beyond this: the trials differ by more than noise (3 sigma for two trials)
+DISAGREE_BIRGE = 3.0
+_NAMES = {"k_prime": "K'", "t_prime": "T'", "radius_m": "the turning radius", "compass_lag_s": "the compass lag",
+          "pilot_gain": "the pilot's gain", "dead_time_s": "the dead time", "rudder_lag_s": "the rudder lag"}
+
+
+def disagreements(birge):
+    """Warnings for pooled values whose trials disagree far beyond their uncertainties."""
+    bad = ["%s (x%.1f)" % (_NAMES.get(k, k), b) for k, b in sorted(birge.items())
+           if b > DISAGREE_BIRGE and not k.startswith("t63")]
+    if not bad:
+        return []
+    return ["the trials disagree on %s far beyond their uncertainties (the Birge ratio in brackets; the "
+            "pooled sigma is widened by it): was the boat's load or trim, the pilot's response setting or "
+            "the compass changed between the trials? Pool only trials of the boat as it will sail"
+            % ", ".join(bad)]

@@ -458,3 +458,15 @@ def test_pooling_weighs_by_inverse_variance_and_widens_on_disagreement():
     assert (m, sd, b) == (1.0, 0.1, 1.0)
     m, sd, b = pool([1.0, 3.0], [float("nan"), float("nan")])  # none has one: the mean, its standard error
     assert m == 2.0 and sd == pytest.approx(1.0)
+
+
+def test_pooled_trials_that_disagree_are_pointed_out():
+    """Trials of a boat whose load (K') changed between them: the pooled sigma is widened and the
+    report asks whether the boat changed; noise-sized differences say nothing."""
+    from trackpilot_tools.tune_pool import disagreements, pool
+
+    _, _, b = pool([1.00, 1.10], [0.01, 0.01])  # 7 sigma apart
+    notes = disagreements({"k_prime": b, "t_prime": 1.2, "t63_s@600": 5.0})
+    assert len(notes) == 1 and "K' (x7.1)" in notes[0] and "T'" not in notes[0]
+    _, _, b = pool([1.00, 1.02], [0.01, 0.01])
+    assert disagreements({"k_prime": b}) == []
