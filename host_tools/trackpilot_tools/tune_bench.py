@@ -203,6 +203,11 @@ def table(rows):
                              e[len(e) // 2], e[min(len(e) - 1, int(0.9 * len(e)))], e[-1],
                              sum(1 for x in e if x <= 0.5), len(e),
                              sum(1 for r in db if abs(1.0 - r["truth"]["pilot_deadband_deg"]) <= 0.5), cov, len(db)))
+    cov = []
+    for key in ("k_prime", "t_prime", "radius_m", "compass_lag_s"):
+        n_in = sum(1 for r in ok if abs(r["fit"][key] - r["truth"][key]) <= 2 * r["sd"][key])
+        cov.append("%s %d/%d" % (key, n_in, len(ok)))
+    lines.append("within 2 sigma of the stated uncertainty: " + ", ".join(cov))
     dur = [r["trial_s"] for r in ok]
     lines.append("trial duration: %.0f-%.0f s" % (min(dur), max(dur)))
     # is the stated uncertainty honest: |error| <= 2 sigma; and what tune accepts
