@@ -105,6 +105,14 @@ def test_two_trials_are_pooled(trial_run, tmp_path, capsys):
     assert json.loads((tmp_path / "tune" / "config.json").read_text())["boat"]["min_turn_radius_m"] > 5
     report = (tmp_path / "tune" / "report.md").read_text()
     assert "2 trials pooled" in report and "Birge ratio" in report
+    # the same log given twice (or a copy of it) is used once: a trial is never pooled with itself
+    copy = tmp_path / "copy" / "0001-00.tpl"
+    copy.parent.mkdir()
+    copy.write_bytes(logs[0].read_bytes())
+    capsys.readouterr()
+    rc = _cli(["tune", str(logs[0]), str(copy), "--out", str(tmp_path / "once"), "--no-plots"])
+    assert rc == 0 and "is the same log as" in capsys.readouterr().out
+    assert "pooled" not in json.loads((tmp_path / "once" / "fit.json").read_text())
     # a cut second trial is left out, with a note, and the first one fitted alone
     data = b"".join(p.read_bytes() for p in logs2)
     d2 = logdecode.decode_files(logs2)
