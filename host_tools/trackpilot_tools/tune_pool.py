@@ -31,10 +31,11 @@ from . import tune_fit as F
 # the pilot model's assumptions, the current's leeway split...), which pooling does not shrink.
 # Measured on boats 1-40 of tune_bench, three trials each (noise offsets 0, 1000, 2000): the rms
 # of the three trials' mean error beyond what their stated sigmas explain. 1 sigma; relative for
-# K', T' and the pilot's gain. Pooled: sd^2 = sd_ivw^2 + shared^2 (1 - 1/n), so one trial keeps
-# its own sd (docs/COMMISSIONING.md "Pooled trials").
-SHARED_REL = {"k_prime": 0.007, "t_prime": 0.05, "pilot_gain": 0.04}
-SHARED_ABS = {"radius_m": 0.06, "compass_lag_s": 0.04}
+# K', T' and the pilot's gain. A single trial's sigma carries it too (tune_fit's *_SD_MODEL),
+# except T''s (5 %: its own sigma covered its error already). Pooled: sd^2 = sd_ivw^2 + shared^2
+# (1 - 1/n), so one trial keeps its own sd (docs/COMMISSIONING.md "Pooled trials").
+SHARED_REL = {"k_prime": F.K_PRIME_SD_MODEL, "t_prime": 0.05, "pilot_gain": F.PILOT_GAIN_SD_MODEL}
+SHARED_ABS = {"radius_m": F.RADIUS_SD_MODEL_M, "compass_lag_s": F.COMPASS_LAG_SD_MODEL_S}
 
 
 def _with_shared(sd, shared, n):
