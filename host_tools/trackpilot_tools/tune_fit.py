@@ -55,13 +55,27 @@ def _trial_events(d):
                 if ev[j][1].startswith("end end"):
                     end, why = j, None
                 else:
-                    why = ev[j][1][4:]
+                    why = _stop_reason(d, ev[j][0]) or ev[j][1][4:]
                 break
         trials.append((b, end, why))
     if all(j is None for _, j, _ in trials):
-        raise TuneError("the trial did not complete (%s): sail the whole trial again; tune needs "
-                        "every manoeuvre of one trial" % trials[-1][2])
+        why = trials[-1][2]
+        hint = ""
+        if "pilot_hang" in why:  # the pilot did not turn the boat as asked: a second sail repeats it
+            hint = ("; the pilot did not turn the boat towards the course it was given: check its "
+                    "response/rudder gain setting and the rudder drive first")
+        raise TuneError("the trial did not complete (%s): sail the whole trial again%s; tune needs "
+                        "every manoeuvre of one trial" % (why, hint))
     return ev, trials
+
+
+def _stop_reason(d, t_s):
+    """The mode machine's reason for leaving TRIAL at t_s (its MODE event: "trial aborted by alarm
+    pilot_hang: ..."), which the trial's own "end stopped: mode STANDBY" does not say; else None."""
+    for e in d.events:
+        if e.kind == "MODE" and e.text.startswith("TRIAL->") and abs(e.t_s - t_s) <= 1.0:
+            return e.text.partition(": ")[2] or None
+    return None
 
 
 def trial_from_decoded(d):

@@ -250,6 +250,20 @@ def test_tune_refuses_a_trial_in_which_the_pilot_hunted(tmp_path, capsys):
     assert "Traceback" not in err
 
 
+def test_a_trial_aborted_by_an_alarm_is_refused_with_the_alarm(tmp_path, capsys):
+    """A pilot too weak to turn the boat in the zig-zag (gain x0.3, wide deadband, slow ram): the
+    firmware's hang check raises pilot_hang, the mode machine ends the trial, and tune's refusal
+    quotes that reason (not the trial's own "stopped: mode STANDBY") and says what to check."""
+    out = tmp_path / "weak"
+    run, logs = _trial(out, overrides={"pilot": {"kp_rudder_per_deg": 0.25, "deadband_deg": 3.0,
+                                                 "rudder_rate_degps": 3.0}})
+    rc = _cli(["tune", *map(str, logs), "--out", str(tmp_path / "t")])
+    err = capsys.readouterr().err
+    assert rc == 2 and "Traceback" not in err
+    assert "did not complete (trial aborted by alarm pilot_hang" in err, err
+    assert "check its response/rudder gain setting" in err
+
+
 def test_tune_refuses_a_log_without_trial(tmp_path, capsys):
     out = tmp_path / "auto"
     run = SimRun(TRACK, out, seed=1, scenario="calm", duration_s=40)
