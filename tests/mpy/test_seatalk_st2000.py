@@ -24,12 +24,14 @@ class FakePilot:
         self.lose_course_keys = ()  # indices (0 = first) of course keys lost on the way
         self.course_keys_seen = 0
         self.lose_statuses = 0  # the next n statuses are lost on the bus
+        self.rudder = 0  # reported rudder, deg, + = steer right (set by a test)
 
     def status(self, t):
         if self.lose_statuses:
             self.lose_statuses -= 1  # lost on the bus
             return
-        self.out.append((t, st.encode_84(int(self.heading + 0.5) % 360, self.course, self.mode)))
+        self.out.append((t, st.encode_84(int(self.heading + 0.5) % 360, self.course, self.mode,
+                                         rudder_deg=int(self.rudder))))
 
     def receive(self, dg, t):
         d = st.decode(dg)
@@ -438,6 +440,52 @@ def test_hang_no_steer_detected_by_convergence():
     T.eq(len(hang), 1)
     T.true("not turning" in hang[0][2], hang[0][2])
     T.true(sp.EV_RECOVERED in r.names())
+
+
+def _reversing_ram(r, start_ms, turns_at_ms):
+    """Each step: the reported rudder ramps from -25 to +29 deg at 5.6 deg/s from start_ms (a slow
+    ram reversing after an overshoot); the heading stays put until turns_at_ms (None: never)."""
+    def each(rr):
+        rr.pilot.rudder = max(-25.0, min(29.0, -25.0 + 5.6 * (rr.t - start_ms) / 1000.0))
+        if turns_at_ms is not None and rr.t >= turns_at_ms:
+            rr.pilot.hang = None
+    return each
+
+
+def test_a_rudder_coming_over_gets_one_more_window():
+    # a hot pilot with a slow ram: 10 s to reverse its rudder, the boat turns only after the window
+    r = _engaged_rig(converge_window_ms=15000)
+    r.pilot.hang = "no_steer"
+    r.pilot.rudder = -25
+    t0 = r.t
+    r.drv.steer_to(40, r.t)
+    r.run(60000, each=_reversing_ram(r, t0, t0 + 16000))
+    T.eq(r.drv.hangs, 0, str(r.events))
+    T.eq(r.drv.state, sp.ENGAGED)
+
+
+def test_the_rudder_delays_a_hang_by_one_window_only():
+    # the rudder report comes over but the boat never turns (a broken linkage): a hang, one window late
+    r = _engaged_rig(converge_window_ms=15000)
+    r.pilot.hang = "no_steer"
+    r.pilot.rudder = -25
+    t0 = r.t
+    r.drv.steer_to(40, r.t)
+    r.run(45000, each=_reversing_ram(r, t0, None))
+    hang = [e for e in r.events if e[0] == sp.EV_HANG]
+    T.eq(len(hang), 1, str(r.events))
+    T.true(29000 <= hang[0][1] - t0 <= 32000, hang)
+    T.true("in 30 s" in hang[0][2], hang[0][2])
+    # a rudder that stays where it is: the plain window
+    r = _engaged_rig(converge_window_ms=15000)
+    r.pilot.hang = "no_steer"
+    r.pilot.rudder = 29  # at the stop on the right side, but not moving: no evidence of steering
+    t0 = r.t
+    r.drv.steer_to(40, r.t)
+    r.run(25000)
+    hang = [e for e in r.events if e[0] == sp.EV_HANG]
+    T.eq(len(hang), 1, str(r.events))
+    T.true(hang[0][1] - t0 <= 17000, hang)
 
 
 def test_slow_turn_and_waves_are_not_a_hang():

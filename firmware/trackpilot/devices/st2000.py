@@ -57,6 +57,9 @@ The hung pilot (ARCHITECTURE.md), while ENGAGED:
       `converge_window_ms` in which the heading moved towards the locked course by less than
       `converge_progress_deg`. This measures the pilot's turning, not the error, so new commands
       (which move the locked course) cannot hide a pilot that keeps talking but stops steering.
+      A window whose reported rudder came over by 10 deg or more to the side that turns towards
+      the course (and stands at least 5 deg there) is extended once: the pilot steers, its slow
+      ram is still reversing; the progress is then counted over both windows.
       The heading is the GNSS heading when the app feeds it (`note_motion`: checksummed, 5 Hz),
       else the pilot's compass; below `converge_min_speed_mps` (when known) the window restarts.
 Recovery: Standby (confirmed), pause `recover_pause_ms`, Auto (confirmed), then the course is
@@ -161,6 +164,8 @@ class St2000:
         self._conv_h0 = 0.0  # heading at its start
         self._conv_side = 0  # +1: locked course to starboard of the heading, -1: to port
         self._conv_src = 0  # 1: GNSS heading, 0: pilot compass
+        self._conv_r0 = None  # the reported rudder at the window's start (None: not reported)
+        self._conv_ext = False  # the window was extended once: the pilot was reversing its rudder
         self._gh_deg = None  # GNSS heading and speed from note_motion()
         self._gh_t = 0
         self._sog_mps = None
@@ -608,6 +613,8 @@ class St2000:
             self._conv_moved = 0.0
             self._conv_side = side
             self._conv_src = src
+            self._conv_r0 = self.rudder_deg
+            self._conv_ext = False
             return False
         # summed step by step: a turn of more than 180 deg in a window (a turning circle) is progress
         self._conv_moved += side * wrap180(h - self._conv_h0)
@@ -617,11 +624,23 @@ class St2000:
             return False
         moved_deg = self._conv_moved
         if moved_deg < self.converge_progress_deg:
+            r0, r1 = self._conv_r0, self.rudder_deg
+            if (not self._conv_ext and r0 is not None and r1 is not None
+                    and side * r1 >= 5 and side * (r1 - r0) >= 10):
+                # the pilot is steering: its rudder came over to the side that turns towards the
+                # course (a slow ram reversing after an overshoot takes most of a window): one more
+                # window, the progress counted over both (docs/SEATALK.md "Hang checks")
+                self._conv_ext = True
+                self._conv_t0 = t_ms
+                return False
             self._hang(t_ms, "heading %d not turning towards course %s: %.1f deg towards it in %d s, error %d deg" % (
-                self.heading_deg, self.course_deg, moved_deg, dt_ms // 1000, int(abs(err))))
+                self.heading_deg, self.course_deg, moved_deg,
+                (dt_ms + (self.converge_window_ms if self._conv_ext else 0)) // 1000, int(abs(err))))
             return True
         self._conv_t0 = t_ms  # turning well enough: next window
         self._conv_moved = 0.0
+        self._conv_r0 = self.rudder_deg
+        self._conv_ext = False
         return False
 
     def _hang(self, t_ms, why):
