@@ -251,12 +251,13 @@ def test_tune_refuses_a_trial_in_which_the_pilot_hunted(tmp_path, capsys):
 
 
 def test_a_trial_aborted_by_an_alarm_is_refused_with_the_alarm(tmp_path, capsys):
-    """A pilot too weak to turn the boat in the zig-zag (gain x0.3, wide deadband, slow ram): the
-    firmware's hang check raises pilot_hang, the mode machine ends the trial, and tune's refusal
-    quotes that reason (not the trial's own "stopped: mode STANDBY") and says what to check."""
+    """A pilot whose ram barely moves (0.4 deg/s: less than the 10 deg a window needs to count
+    as steering) cannot turn the boat through the trial's course steps: the firmware's hang check
+    raises pilot_hang, the mode machine ends the trial, and tune's refusal quotes that reason (not
+    the trial's own "stopped: mode STANDBY") and says what to check."""
     out = tmp_path / "weak"
-    run, logs = _trial(out, overrides={"pilot": {"kp_rudder_per_deg": 0.25, "deadband_deg": 3.0,
-                                                 "rudder_rate_degps": 3.0}})
+    run, logs = _trial(out, duration_s=300, overrides={"pilot": {"kp_rudder_per_deg": 0.25, "deadband_deg": 3.0,
+                                                                 "rudder_rate_degps": 0.4}})
     rc = _cli(["tune", *map(str, logs), "--out", str(tmp_path / "t")])
     err = capsys.readouterr().err
     assert rc == 2 and "Traceback" not in err
