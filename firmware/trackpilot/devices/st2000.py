@@ -629,7 +629,7 @@ class St2000:
                     and side * r1 >= 5 and side * (r1 - r0) >= 10):
                 # the pilot is steering: its rudder came over to the side that turns towards the
                 # course (a slow ram reversing after an overshoot takes most of a window): one more
-                # window, the progress counted over both (docs/SEATALK.md "Hang checks")
+                # window, the progress counted over both (docs/SEATALK.md, "Hang, while ENGAGED")
                 self._conv_ext = True
                 self._conv_t0 = t_ms
                 return False
