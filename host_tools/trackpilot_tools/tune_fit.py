@@ -1544,8 +1544,15 @@ def fit_all(d, length_m=5.0, gnss_latency_s=0.075, trial=None):
            "current": cur, "speed_map": sm, "compass": comp, "nomoto": nom, "circle": circ,
            "steps": steps, "zigzag": zz, "pilot_gain": pg, "current_drift": drift, "_trial": tr, "_u": u}
     fit["problems"] = uncertainty_problems(fit)
-    fit["config"], fit["margins"] = derive_guidance(nom, circ, steps, sm)
-    fit["sim_params"] = sim_params(nom, comp, sm, pg)
+    return derive_all(fit)
+
+
+def derive_all(fit):
+    """What follows from a fit's parts (one trial's, or pooled by tune_pool): the configuration and
+    its margins, the simulator's boat, the pilot's limit-cycle check and the report's warnings."""
+    nom, sm, pg = fit["nomoto"], fit["speed_map"], fit["pilot_gain"]
+    fit["config"], fit["margins"] = derive_guidance(nom, fit["circle"], fit["steps"], sm)
+    fit["sim_params"] = sim_params(nom, fit["compass"], sm, pg)
     fit["limit_cycles"] = pilot_limit_cycles(fit["sim_params"]) if pg.get("gain", 0.0) > 0.0 else []
     fit["warnings"] = warnings(fit)
     return fit

@@ -193,10 +193,8 @@ def pool_fits(numbered_fits, n_trials=None, skipped=()):
     for n, f in numbered_fits:
         problems += ["trial %d: %s" % (n, p) for p in f["problems"] if p.startswith("the pilot hunted")]
     fit["problems"] = problems
-    fit["config"], fit["margins"] = F.derive_guidance(nom, circ, steps, sm)
-    fit["sim_params"] = F.sim_params(nom, comp, sm, pg)
-    fit["limit_cycles"] = F.pilot_limit_cycles(fit["sim_params"]) if pg.get("gain", 0.0) > 0.0 else []
-    fit["warnings"] = F.warnings(fit) + disagreements(birge)
+    F.derive_all(fit)
+    fit["warnings"] += disagreements(birge)
     return fit
 
 

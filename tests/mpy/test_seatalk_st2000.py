@@ -452,13 +452,19 @@ def _reversing_ram(r, start_ms, turns_at_ms):
     return each
 
 
-def test_a_rudder_coming_over_gets_one_more_window():
-    # a hot pilot with a slow ram: 10 s to reverse its rudder, the boat turns only after the window
+def _not_steering(rudder_deg):
+    """An engaged rig (15 s hang window) whose pilot stops turning the boat, its rudder reported at
+    rudder_deg, asked for a course 40 deg to starboard. Returns (rig, the time it was asked)."""
     r = _engaged_rig(converge_window_ms=15000)
     r.pilot.hang = "no_steer"
-    r.pilot.rudder = -25
-    t0 = r.t
+    r.pilot.rudder = rudder_deg
     r.drv.steer_to(40, r.t)
+    return r, r.t
+
+
+def test_a_rudder_coming_over_gets_one_more_window():
+    # a hot pilot with a slow ram: 10 s to reverse its rudder, the boat turns only after the window
+    r, t0 = _not_steering(rudder_deg=-25)
     r.run(60000, each=_reversing_ram(r, t0, t0 + 16000))
     T.eq(r.drv.hangs, 0, str(r.events))
     T.eq(r.drv.state, sp.ENGAGED)
@@ -466,22 +472,14 @@ def test_a_rudder_coming_over_gets_one_more_window():
 
 def test_the_rudder_delays_a_hang_by_one_window_only():
     # the rudder report comes over but the boat never turns (a broken linkage): a hang, one window late
-    r = _engaged_rig(converge_window_ms=15000)
-    r.pilot.hang = "no_steer"
-    r.pilot.rudder = -25
-    t0 = r.t
-    r.drv.steer_to(40, r.t)
+    r, t0 = _not_steering(rudder_deg=-25)
     r.run(45000, each=_reversing_ram(r, t0, None))
     hang = [e for e in r.events if e[0] == sp.EV_HANG]
     T.eq(len(hang), 1, str(r.events))
     T.true(29000 <= hang[0][1] - t0 <= 32000, hang)
     T.true("in 30 s" in hang[0][2], hang[0][2])
     # a rudder that stays where it is: the plain window
-    r = _engaged_rig(converge_window_ms=15000)
-    r.pilot.hang = "no_steer"
-    r.pilot.rudder = 29  # at the stop on the right side, but not moving: no evidence of steering
-    t0 = r.t
-    r.drv.steer_to(40, r.t)
+    r, t0 = _not_steering(rudder_deg=29)  # at the stop on the right side, but not moving
     r.run(25000)
     hang = [e for e in r.events if e[0] == sp.EV_HANG]
     T.eq(len(hang), 1, str(r.events))
