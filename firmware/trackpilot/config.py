@@ -184,6 +184,7 @@ SCHEMA = (
         ("circle_low_turns", 0, "i", 0, 3),  # 1: a circle after the low-speed zig-zag (COMMISSIONING.md)
         ("max_distance_m", 600.0, "f", 50.0, 5000.0),
         ("max_duration_s", 600, "i", 60, 3600),
+        ("end_margin_s", 10, "i", 0, 120),  # the script ends this long before max_duration_s
         ("min_speed_mps", 0.5, "f", 0.1, 3.0),
     )),
     ("telemetry", (

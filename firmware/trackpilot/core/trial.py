@@ -22,6 +22,12 @@ The script (each phase logged "TRIAL <phase> start/end ..." with its own numbers
               speed is measured within a minute of it; at most `circle_low_max_s`. It stays within
               10 minutes on slow-turning boats only with `straight_s` 30 and `circle_max_s` 60
               (measured: docs/COMMISSIONING.md)
+Time budget: the script ends on its own `end_margin_s` before `max_duration_s`. Each step, zig-zag
+and circle gets at most its own limit and at most what is left after the phases still to come take
+their typical time (PLAN_S); the two last circles share what is left. A slow boat with a ringing
+pilot (boat 78 of the hidden boats: its second circle was cut at 600 s) then sails shorter circles
+instead of losing the whole trial to the limit. Its floor (`*_MIN_S`) keeps a phase long enough to
+measure; only then can the limit still end it.
 Limits (any one ends the trial and sends the boat to STANDBY): `max_distance_m` from the start
 point, `max_duration_s`, water speed below `min_speed_mps` for `min_speed_grace_s` once under
 way, any alarm (the mode machine aborts TRIAL on any alarm by itself).
@@ -37,6 +43,14 @@ Usage:
 from trackpilot.compat import ticks_diff, wrap180
 
 STEPS_DEG = (10, -10, 20, -20)
+
+# A phase's typical time (s), to budget the phases before it (the trials of the 200 hidden-boat
+# sails: step at the low / high RPM median 18 / 25 s, zig-zag median 45 / 34 s, the turn back 45 s,
+# circle at the high RPM median 65 s; docs/COMMISSIONING.md)
+PLAN_S = {"step": 20, "zigzag": 45, "turn": 45, "circle": 65}
+STEP_MIN_S = 10
+ZIGZAG_MIN_S = 30
+CIRCLE_MIN_S = 40
 
 DEFAULTS = {
     "rpm_low": 600,
@@ -57,6 +71,7 @@ DEFAULTS = {
     "circle_low_max_s": 90,
     "max_distance_m": 600.0,
     "max_duration_s": 600,
+    "end_margin_s": 10,
     "min_speed_mps": 0.5,
     "min_speed_grace_s": 10,
 }
@@ -106,7 +121,43 @@ class Trial:
         self.phase = phase
         self.phase_t = t_ms
         self.settled_since = None
+        self.limit_s = self._limit_s(phase, t_ms)
+        if self.limit_s is not None:
+            text += " max=%d" % self.limit_s
         self._mark("%s start%s" % (PHASE_NAMES[phase], (" " + text) if text else ""))
+
+    def _plan_after_s(self, phase):
+        """Typical seconds of the phases after `phase` (entered now) until the script's end."""
+        p = PLAN_S
+        last_speed = self.rpm_i + 1 >= len(self.rpms)
+        rest = 0
+        if phase == P_STEP:  # the steps after this one, and the zig-zag at this speed
+            rest += (len(STEPS_DEG) - 1 - self.step_i) * p["step"] + p["zigzag"]
+        if not last_speed:
+            if phase != P_CIRCLE and self.c["circle_low_turns"] >= 1:
+                rest += p["circle"]  # the optional circle at the low speed
+            rest += p["turn"] + len(STEPS_DEG) * p["step"] + p["zigzag"]  # the next speed
+        return rest + 2 * p["circle"]  # the last two circles
+
+    def _limit_s(self, phase, t_ms):
+        """The time limit of a step, zig-zag or circle entered now (None for the others)."""
+        c = self.c
+        left_s = c["max_duration_s"] - c["end_margin_s"] - ticks_diff(t_ms, self.t0) / 1000.0
+        if phase == P_STEP:
+            own, floor = c["step_max_s"], STEP_MIN_S
+        elif phase == P_ZIGZAG:
+            own, floor = c["zigzag_max_s"], ZIGZAG_MIN_S
+        elif phase == P_CIRCLE:
+            floor = CIRCLE_MIN_S
+            if self.rpm_i + 1 < len(self.rpms):
+                own = c["circle_low_max_s"]
+            else:
+                own = c["circle_max_s"]
+                # the last two circles share what is left
+                return int(min(own, max(floor, left_s / (2 if self.circ_dir > 0 else 1))))
+        else:
+            return None
+        return int(min(own, max(floor, left_s - self._plan_after_s(phase))))
 
     # ---------------------------------------------------------------- control
     def start(self, t_ms, heading_deg):
@@ -190,9 +241,9 @@ class Trial:
                 self._mark("straight end sog=%.2f" % sog_mps)
                 self._begin_step(t_ms, heading_deg)
         elif ph == P_STEP:
-            if self._settled(t_ms, pilot_err_deg, c["step_settle_s"]) or in_s >= c["step_max_s"]:
+            if self._settled(t_ms, pilot_err_deg, c["step_settle_s"]) or in_s >= self.limit_s:
                 self._mark("step end %s after %.1f s" % (
-                    "settled" if in_s < c["step_max_s"] else "NOT settled", in_s))
+                    "settled" if in_s < self.limit_s else "NOT settled", in_s))
                 self.step_i += 1
                 if self.step_i < len(STEPS_DEG):
                     self._begin_step(t_ms, heading_deg)
@@ -215,7 +266,7 @@ class Trial:
                     self.zz_leg += 1
                     self.course_delta_deg = 4 * self.zz_side * c["zigzag_deg"]
                     self._mark("zigzag switch %+d at %.1f" % (self.zz_side * c["zigzag_deg"], heading_deg))
-            elif in_s >= c["zigzag_max_s"]:
+            elif in_s >= self.limit_s:
                 self._mark("zigzag end timeout legs=%d" % self.zz_leg)
                 self._after_zigzag(t_ms)
         elif ph == P_CIRCLE:
@@ -229,7 +280,7 @@ class Trial:
                 goal = 360.0 * c["circle_low_turns"] + 180.0 - c["circle_lead_deg"]
             else:
                 goal = 360.0 * c["circle_turns"]
-            if self.circ_turned >= goal or in_s >= (c["circle_low_max_s"] if low else c["circle_max_s"]):
+            if self.circ_turned >= goal or in_s >= self.limit_s:
                 self._mark("circle end dir=%+d turned=%.0f in %.1f s" % (self.circ_dir, self.circ_turned, in_s))
                 if low:
                     self.lead_deg = 0
@@ -264,6 +315,6 @@ class Trial:
     def _begin_circle(self, t_ms, direction):
         self.circ_dir = direction
         self.circ_turned = 0.0
+        self.circ_prev = None
         self.lead_deg = direction * self.c["circle_lead_deg"]
         self._enter(P_CIRCLE, t_ms, "dir=%+d lead=%d rpm=%d" % (direction, self.c["circle_lead_deg"], self.rpm))
-        self.circ_prev = None
