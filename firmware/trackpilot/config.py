@@ -61,6 +61,9 @@ SCHEMA = (
         ("key_interval_ms", 250, "i", 50, 5000),
         ("odd_rule", "dotnet", "s", ("dotnet", "knauf"), None),
         ("status_timeout_ms", 3500, "i", 1000, 30000),
+        # the rudder report (0x84 / 0x9C): 1 as PROTOCOLS.md (+ = steer right), -1 reversed, 0 not
+        # used; to be confirmed on the boat (tune finds it from the trial, docs/COMMISSIONING.md)
+        ("rudder_sign", 1, "i", -1, 1),
         ("deadband_deg", 1, "i", 0, 10),  # the pilot's deadband: the estimate's prior (core/pilotdb.py)
         # share of the estimate the locked course is put beyond the wanted heading on a los
         # straight in AUTO (docs/NAVIGATION.md "The pilot's deadband"); 0: off

@@ -137,7 +137,9 @@ def _cut_trial(d, ev, b, j):
     }
     if not a["heading_ok"].all():
         a["heading_ok"] &= True  # kept: the fits use only valid samples
-    return {"t0": t0, "t1": t1, "segments": segs, "a": a, "hunts": hunts}
+    begin = _kv(ev[b][1].split()[1:])
+    return {"t0": t0, "t1": t1, "segments": segs, "a": a, "hunts": hunts,
+            "rudder_sign_logged": int(begin.get("rudder_sign", 1))}  # older logs: the default 1
 
 
 def _kv(words):
@@ -164,6 +166,47 @@ def segments(trial, kind, **match):
 
 def _sel(a, t0, t1, skip_s=0.0):
     return (a["t"] >= t0 + skip_s) & (a["t"] <= t1)
+
+
+# --------------------------------------------------------------------------- the rudder's sign
+def check_rudder_sign(trial):
+    """Does the pilot's rudder report have the sign PROTOCOLS.md gives it (+ = steer right)? Not
+    known for this ST2000+ until it is seen: in the circles the rudder stands at its stop on the
+    side the boat turns to. Returns {"sign": the pilot.rudder_sign to configure, "logged": the one
+    in effect when the trial was sailed, "reversed": whether the log's rudder was turned round
+    here (in place, once) so that the fits see + = steer right, "agree": the share of circle samples
+    whose rudder and yaw rate had the same sign}. TuneError when it cannot be told."""
+    if "rudder" in trial:
+        return trial["rudder"]
+    logged = trial.get("rudder_sign_logged", 1)
+    if logged == 0:
+        raise TuneError("the trial was sailed with pilot.rudder_sign 0 (the pilot's rudder report not "
+                        "used), so the log has no rudder angle for K' and T': set pilot.rudder_sign to 1 "
+                        "and sail the trial again")
+    a = trial["a"]
+    dt = np.gradient(a["t"])
+    with np.errstate(divide="ignore", invalid="ignore"):  # repeated times (two sessions): no rate
+        rate = np.where(dt > 0.0, np.gradient(a["heading"]) / dt, 0.0)
+    same = total = 0
+    for t0, t1, _info in segments(trial, "circle"):
+        m = _sel(a, t0, t1, 8.0) & a["heading_ok"] & (np.abs(a["rudder"]) >= 10.0) & (np.abs(rate) >= 3.0)
+        same += int(np.sum(np.sign(a["rudder"][m]) == np.sign(rate[m])))
+        total += int(m.sum())
+    if total < 20:
+        raise TuneError("the pilot's rudder report never stood at 10 deg or more while the boat turned in "
+                        "the circles (%d samples): its rudder angle is missing or wrong; check the 0x84 "
+                        "datagram's rudder byte (docs/SEATALK.md)" % total)
+    agree = same / float(total)
+    if 0.2 < agree < 0.8:
+        raise TuneError("the pilot's rudder report agrees with the way the boat turned on only %.0f %% of "
+                        "the circles' samples: neither sign fits; check the 0x84 datagram's rudder byte "
+                        "(docs/SEATALK.md)" % (100 * agree))
+    reversed_ = agree <= 0.2
+    if reversed_:
+        a["rudder"] = -a["rudder"]
+    trial["rudder"] = {"sign": -logged if reversed_ else logged, "logged": logged, "reversed": reversed_,
+                       "agree": round(agree if not reversed_ else 1.0 - agree, 3)}
+    return trial["rudder"]
 
 
 # --------------------------------------------------------------------------- current, speed
@@ -706,6 +749,7 @@ def _levenberg_marquardt(f, x, steps, lo3, iters=40):
         for _ in range(10):
             dx = -np.linalg.solve(H + lam * np.diag(np.diag(H) + 1e-9), g)
             xn = x + dx
+            xn[:2] = np.clip(xn[:2], -5.0, 5.0)  # log K', log T': far beyond any boat, no overflow
             xn[2] = min(max(xn[2], lo3), 2.0)
             rn = f(xn)
             cn = float(rn @ rn)
@@ -760,7 +804,12 @@ def fit_nomoto(trial, u, L=5.0, gnss_latency_s=0.075, n_meas=100, shared_bias=Fa
                 if best is None or c < best[0]:
                     best = (c, p)
     steps = np.array([1e-3, 1e-3, 0.02])  # the delay: a step that still moves it off 0
-    x, r, cost = _levenberg_marquardt(f, best[1], steps, lo3)
+    try:
+        x, r, cost = _levenberg_marquardt(f, best[1], steps, lo3)
+    except (OverflowError, FloatingPointError, np.linalg.LinAlgError) as e:
+        raise TuneError("the Nomoto fit did not converge (%s): the heading did not follow the rudder "
+                        "report as a boat does; check the rudder report (docs/SEATALK.md), then repeat "
+                        "the zig-zag and the turning circles" % e)
     J = np.column_stack([(f(x + np.eye(3)[i] * steps[i]) - r) / steps[i] for i in range(3)])
     n = len(r)
     sigma2 = cost / max(1, n - 3 - (3 * win.W + win.n_wind if wind_terms else 2 * win.W + 1 if shared_bias else 3 * win.W))
@@ -1504,6 +1553,11 @@ def _manoeuvre_at(fit, t_s):
 def warnings(fit):
     """Things the report points out that do not stop the configuration."""
     out = []
+    rs = fit.get("rudder") or {}
+    if rs.get("reversed"):
+        out.append("the pilot's rudder report has the other sign (+ = steer left: the rudder and the "
+                   "turn disagreed on %.0f %% of the circles' samples): tune used it turned round, and the "
+                   "configuration sets pilot.rudder_sign %d" % (100 * rs["agree"], rs["sign"]))
     for rpm, s in fit["steps"]["by_rpm"].items():
         if s["unsettled"]:
             out.append("%d of the %d course steps at %d RPM had not settled within step_max_s (the "
@@ -1528,6 +1582,7 @@ def fit_all(d, length_m=5.0, gnss_latency_s=0.075, trial=None):
     trials_from_decoded's), the derived configuration and the list of fits too uncertain to use.
     TuneError when a manoeuvre is missing."""
     tr = trial if trial is not None else trial_from_decoded(d)
+    rudder = check_rudder_sign(tr)
     cur = fit_current(tr)
     u = water_speed(tr, cur)
     sm = fit_speed_map(tr, u)
@@ -1542,7 +1597,8 @@ def fit_all(d, length_m=5.0, gnss_latency_s=0.075, trial=None):
     fit = {"trial": {"start_s": tr["t0"], "duration_s": tr["t1"] - tr["t0"],
                      "manoeuvres": [(k, round(t0 - tr["t0"], 1), round(t1 - tr["t0"], 1)) for k, t0, t1, _ in tr["segments"]]},
            "current": cur, "speed_map": sm, "compass": comp, "nomoto": nom, "circle": circ,
-           "steps": steps, "zigzag": zz, "pilot_gain": pg, "current_drift": drift, "_trial": tr, "_u": u}
+           "steps": steps, "zigzag": zz, "pilot_gain": pg, "current_drift": drift, "rudder": rudder,
+           "_trial": tr, "_u": u}
     fit["problems"] = uncertainty_problems(fit)
     return derive_all(fit)
 
@@ -1552,6 +1608,8 @@ def derive_all(fit):
     its margins, the simulator's boat, the pilot's limit-cycle check and the report's warnings."""
     nom, sm, pg = fit["nomoto"], fit["speed_map"], fit["pilot_gain"]
     fit["config"], fit["margins"] = derive_guidance(nom, fit["circle"], fit["steps"], sm)
+    if fit.get("rudder"):
+        fit["config"]["pilot"] = {"rudder_sign": fit["rudder"]["sign"]}
     fit["sim_params"] = sim_params(nom, fit["compass"], sm, pg)
     fit["limit_cycles"] = pilot_limit_cycles(fit["sim_params"]) if pg.get("gain", 0.0) > 0.0 else []
     fit["warnings"] = warnings(fit)

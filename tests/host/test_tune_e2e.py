@@ -174,6 +174,34 @@ def test_trial_with_the_low_speed_circle_tune_sim(tmp_path, capsys):
     assert rc == 0
 
 
+def test_a_reversed_rudder_report_is_found_and_configured(tmp_path, capsys):
+    """A pilot whose 0x84/0x9C rudder byte is + = steer left (the sign is not confirmed on the
+    ST2000+): tune finds it from the circles, fits as usual and writes pilot.rudder_sign -1; with
+    that the firmware logs the rudder the right way round and tune keeps -1."""
+    reversed_pilot = {"pilot": {"rudder_report_sign": -1}}
+    run, logs = _trial(tmp_path / "t1", overrides=reversed_pilot)
+    assert run.stop_reason == "finished", run.stop_reason
+    rc = _cli(["tune", *map(str, logs), "--out", str(tmp_path / "tune1"), "--no-plots"])
+    out = capsys.readouterr().out
+    assert rc == 0
+    fit = json.loads((tmp_path / "tune1" / "fit.json").read_text())
+    assert fit["rudder"] == {"sign": -1, "logged": 1, "reversed": True, "agree": fit["rudder"]["agree"]}
+    assert fit["rudder"]["agree"] > 0.9
+    assert fit["nomoto"]["k_prime"] == pytest.approx(run.p["boat"]["k_prime"], rel=0.15)
+    assert fit["nomoto"]["t_prime"] == pytest.approx(run.p["boat"]["t_prime"], rel=0.15)
+    assert "rudder report has the other sign" in out
+    cfg = json.loads((tmp_path / "tune1" / "config.json").read_text())
+    assert cfg["pilot"]["rudder_sign"] == -1
+    run2, logs2 = _trial(tmp_path / "t2", overrides=reversed_pilot, fw_config={"pilot": cfg["pilot"]})
+    assert run2.stop_reason == "finished", run2.stop_reason
+    rc = _cli(["tune", *map(str, logs2), "--out", str(tmp_path / "tune2"), "--no-plots"])
+    out = capsys.readouterr().out
+    assert rc == 0
+    fit2 = json.loads((tmp_path / "tune2" / "fit.json").read_text())
+    assert (fit2["rudder"]["sign"], fit2["rudder"]["logged"], fit2["rudder"]["reversed"]) == (-1, -1, False)
+    assert "other sign" not in out
+
+
 def test_tune_sweep_around_the_fit(trial_run, tmp_path, capsys):
     """--sweep on a tiny N: boats drawn around the fit sail the tuned and the default guidance on
     the robust bench's engine; config.json is the recommended one."""

@@ -486,6 +486,34 @@ def test_the_rudder_delays_a_hang_by_one_window_only():
     T.true(hang[0][1] - t0 <= 17000, hang)
 
 
+def test_the_rudder_report_sign_is_configurable():
+    # + = steer right as PROTOCOLS.md gives it; -1 for a pilot that reports it the other way
+    # (to be confirmed on the ST2000+); 0: the report is not used at all
+    for sign, want in ((1, 12), (-1, -12), (0, None)):
+        r = Rig(FakePilot(heading=200), rudder_sign=sign)
+        r.pilot.rudder = 12
+        r.run(2100)
+        T.eq(r.drv.rudder_deg, want, "rudder_sign %d" % sign)
+    T.eq(sp.St2000.from_config(lambda dg: None, {"rudder_sign": -1}).rudder_sign, -1)
+
+
+def test_a_reversed_rudder_report_gets_its_extra_window_with_the_sign_set():
+    # the hang check's extension reads which side the rudder came over to: with the pilot's
+    # report reversed and pilot.rudder_sign -1 it sees what the right-way-round pilot shows
+    r = _engaged_rig(converge_window_ms=15000, rudder_sign=-1)
+    r.pilot.hang = "no_steer"
+    r.drv.steer_to(40, r.t)
+    t0 = r.t
+
+    def each(rr):
+        _reversing_ram(rr, t0, t0 + 16000)(rr)
+        rr.pilot.rudder = -rr.pilot.rudder  # what this pilot puts on the bus
+
+    r.pilot.rudder = 25
+    r.run(60000, each=each)
+    T.eq(r.drv.hangs, 0, str(r.events))
+
+
 def test_slow_turn_and_waves_are_not_a_hang():
     r = _engaged_rig(converge_window_ms=20000)
     r.pilot.rate_dps = 2.0  # a big course change at 2 deg/s: 90 s of error above 15 deg

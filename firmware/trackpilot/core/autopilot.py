@@ -309,7 +309,7 @@ class Autopilot:
             if ok:
                 self.trial_start_e7 = (self.fix.lat_e7, self.fix.lon_e7)
                 self._trial_prev = None
-                self.trial.start(t, self.fix.heading_deg)
+                self.trial.start(t, self.fix.heading_deg, self.pilot.rudder_sign)
                 self._pilot_action = None
                 self.apply_pilot(t)
         elif name in ("NEXT_WP", "PREV_WP"):

@@ -160,8 +160,9 @@ class Trial:
         return int(min(own, max(floor, left_s - self._plan_after_s(phase))))
 
     # ---------------------------------------------------------------- control
-    def start(self, t_ms, heading_deg):
-        """Begin the script (the mode machine has accepted a person's TRIAL command)."""
+    def start(self, t_ms, heading_deg, rudder_sign=1):
+        """Begin the script (the mode machine has accepted a person's TRIAL command). rudder_sign:
+        the configured sign of the pilot's rudder report, in the begin mark for `tune`."""
         self.active = True
         self.t0 = t_ms
         self.rpm_i = 0
@@ -173,7 +174,8 @@ class Trial:
         self.rate_f = 0.0
         self.base_deg = heading_deg
         self.result = ""
-        self._mark("begin rpms=%d,%d heading=%.1f" % (self.rpms[0], self.rpms[1], heading_deg))
+        self._mark("begin rpms=%d,%d heading=%.1f rudder_sign=%d" % (
+            self.rpms[0], self.rpms[1], heading_deg, rudder_sign))
         self._enter(P_SPEED, t_ms, "rpm=%d" % self.rpm)
 
     def stop(self, reason):

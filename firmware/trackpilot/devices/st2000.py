@@ -110,7 +110,7 @@ class St2000:
                  converge_window_ms=15000, converge_progress_deg=8.0, converge_min_speed_mps=0.8,
                  recover_retries=3,
                  recover_pause_ms=1000, ten_from_deg=7.0, tolerance_deg=0.5, keys_in_flight=3,
-                 inflight_wait_ms=600, events_len=32):
+                 inflight_wait_ms=600, rudder_sign=1, events_len=32):
         if isinstance(odd_rule, str):
             odd_rule = st.ODD_KNAUF if odd_rule == "knauf" else st.ODD_DOTNET
         self.send = send
@@ -131,6 +131,9 @@ class St2000:
         self.ten_from_deg = ten_from_deg
         self.tolerance_deg = tolerance_deg
         self.keys_in_flight = max(1, int(keys_in_flight))
+        # the rudder report's sign: 1 as PROTOCOLS.md (+ = steer right), -1 reversed, 0 not used
+        # (to be confirmed on the boat: `trackpilot tune` finds it from the trial's circles)
+        self.rudder_sign = int(rudder_sign)
         self.inflight_wait_ms = inflight_wait_ms
         self._evmax = events_len
         self._ev = []
@@ -194,7 +197,7 @@ class St2000:
                  "mode_resends", "status_timeout_ms", "hang_unconfirmed_n", "converge_err_deg",
                  "converge_window_ms", "converge_progress_deg", "converge_min_speed_mps",
                  "recover_retries", "recover_pause_ms", "ten_from_deg", "tolerance_deg", "keys_in_flight",
-                 "inflight_wait_ms")
+                 "inflight_wait_ms", "rudder_sign")
         kw = {}
         for k in names:
             if k in pilot_cfg:
@@ -331,7 +334,7 @@ class St2000:
         if cmd != 0x9C and self._unasked_once(d["mode"], t_ms):
             return  # set aside until the next status says the same
         self.heading_deg = d["heading_deg"]
-        self.rudder_deg = d["rudder_deg"]
+        self.rudder_deg = d["rudder_deg"] * self.rudder_sign if self.rudder_sign else None
         self.turning_stbd = d["turning_stbd"]
         self.last_heading_ms = t_ms
         if cmd == 0x9C:

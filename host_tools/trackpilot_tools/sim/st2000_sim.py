@@ -73,7 +73,7 @@ class ST2000Sim:
     def _status_9c(self, t_us):
         h = self.compass_int()
         if not self.silent:
-            self.bus.send(self.talker, stcodec.encode_9c(h, self.rudder_deg, self.p["odd_rule"],
+            self.bus.send(self.talker, stcodec.encode_9c(h, self._rudder_report(), self.p["odd_rule"],
                                                          self.compass_rate > 0.5), t_us)
         self.sched.at(t_us + self._period_us, self._status_9c)
 
@@ -82,9 +82,12 @@ class ST2000Sim:
             return
         alarms = 0x04 if self.off_course_s > 20.0 else 0
         d = stcodec.encode_84(self.compass_int(), self.course_deg, self.mode, alarms,
-                              self.rudder_deg, self.p["tt_byte"], self.p["odd_rule"],
+                              self._rudder_report(), self.p["tt_byte"], self.p["odd_rule"],
                               self.compass_rate > 0.5)
         self.bus.send(self.talker, d, t_us)
+
+    def _rudder_report(self):
+        return self.rudder_deg * self.p.get("rudder_report_sign", 1)
 
     def compass_int(self):
         return int(math.floor((self.compass_deg or 0.0) + 0.5)) % 360
