@@ -92,6 +92,10 @@ def boat_overrides(path):
         raise ValueError("--boat %s: cannot read it (%s)" % (path, e.strerror or e))
     except ValueError:
         raise ValueError("--boat %s: not JSON (write one with `trackpilot tune LOG`)" % path)
+    if isinstance(fit, dict) and "sim_params" in fit and fit["sim_params"] is None:
+        why = (fit.get("rudder") or {}).get("absent") or "K' and T' were not identified"
+        raise ValueError("--boat %s: this fit cannot be sailed: %s, so the boat's K' and T' are not "
+                         "known (docs/COMMISSIONING.md)" % (path, why))
     if not isinstance(fit, dict) or not isinstance(fit.get("sim_params"), dict):
         raise ValueError("--boat %s: no sim_params in it (write one with `trackpilot tune LOG`)" % path)
     return fit["sim_params"]

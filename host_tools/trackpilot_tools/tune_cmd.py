@@ -87,6 +87,9 @@ def run(args):
     if args.sweep:
         from trackpilot_tools import tune_sweep as S
 
+        if fit["sim_params"] is None:
+            raise UserError("--sweep sails boats around the fitted one, and this fit has no K' and T' (%s): "
+                            "run tune without --sweep" % fit["rudder"]["absent"])
         configs = {"tuned": fit["config"], "default": default_config(fit["config"])}
         print("sweep: %d boats around the fit x 2 configurations on Dask (%s)..." % (
             args.sweep, args.scheduler or "%d local worker(s)" % args.jobs), flush=True)
@@ -170,7 +173,9 @@ def _pooled_lines(pooled):
     L.append("|---|---|---|---|---|---|---|---|")
     for t in pooled["per_trial"]:
         L.append("| %d | %.0f | %s | %s | %s | %s | %s | %s |" % (
-            t["trial"], t["start_s"], _pm(t["k_prime"], t["k_prime_sd"]), _pm(t["t_prime"], t["t_prime_sd"]),
+            t["trial"], t["start_s"],
+            _pm(t["k_prime"], t["k_prime_sd"]) if t["k_prime"] is not None else "no rudder report",
+            _pm(t["t_prime"], t["t_prime_sd"]) if t["t_prime"] is not None else "no rudder report",
             _pm(t["radius_m"], t["radius_sd_m"], "%.2f"), _pm(t["compass_lag_s"], t["compass_lag_sd_s"], "%.2f"),
             ("%.2f" % t["pilot_gain"]) if t["pilot_gain"] > 0 else "not claimed",
             "; ".join(t["problems"]) if t["problems"] else "usable"))
@@ -198,30 +203,37 @@ def report_text(fit, plots, args):
     for w in fit.get("warnings", ()):
         L.append("Note: %s.\n" % w)
     L.extend(_pooled_lines(fit.get("pooled")))
-    L.append("## Boat (Nomoto, L = %.1f m)\n" % n["length_m"])
-    L.append("| quantity | value |\n|---|---|")
-    L.append("| K' | %s |" % _pm(n["k_prime"], n["k_prime_sd"]))
-    L.append("| T' | %s |" % _pm(n["t_prime"], n["t_prime_sd"]))
-    if "t_prime_sd_fit" in n:
-        # the fit's own (the heading's noise) and the current's part (measured from the trial)
-        L.append("| ... of which the heading's noise / the current (its walk, the circles' error) | "
-                 "K' +- %.3g / +- %.3g, T' +- %.3g / +- %.3g; the current walked about %.3f m/s per "
-                 "minute (sqrt of its variance rate) |" % (
-                     n["k_prime_sd_fit"], n["k_prime_sd_current"], n["t_prime_sd_fit"],
-                     n["t_prime_sd_current"], math.sqrt(60.0 * fit["current_drift"]["q_mps2_per_s"])))
-    if "dead_time_s" in n:
-        L.append("| dead time, rudder report -> heading (the flow lag, the GNSS latency's error and the "
-                 "report timing together: the flow lag itself is not identified) | %s s |" % _pm(
-                     n["dead_time_s"], n["dead_time_sd_s"], "%.2f"))
+    if n is None:
+        L.append("## Boat\n")
+        L.append("| quantity | value |\n|---|---|")
+        L.append("| K', T', the rudder's dead time | not identified: %s |" % fit["rudder"]["absent"])
     else:
-        L.append("| rudder flow lag | %s s |" % _pm(n["rudder_lag_s"], n["rudder_lag_sd_s"], "%.2f"))
-    L.append("| wind's yaw moment modelled from | %s |" % (
-        "the wind sensor's apparent wind" if n.get("wind_model") == "sensor"
-        else "the heading (a constant wind: no wind sensor in the log)"))
-    L.append("| heading fit RMS | %.2f deg over %d windows of 20 s (zig-zag and circles) |" % (
-        n["rms_deg"], n["windows"]))
-    L.append("| turning radius (circles, %.0f deg rudder) | %s m |" % (ci["rudder_deg"], _pm(ci["radius_m"], ci["radius_sd_m"], "%.2f")))
-    L.append("| ... from K' at that rudder (check) | %.2f m |" % ci["radius_from_k_prime_m"])
+        L.append("## Boat (Nomoto, L = %.1f m)\n" % n["length_m"])
+        L.append("| quantity | value |\n|---|---|")
+        L.append("| K' | %s |" % _pm(n["k_prime"], n["k_prime_sd"]))
+        L.append("| T' | %s |" % _pm(n["t_prime"], n["t_prime_sd"]))
+        if "t_prime_sd_fit" in n:
+            # the fit's own (the heading's noise) and the current's part (measured from the trial)
+            L.append("| ... of which the heading's noise / the current (its walk, the circles' error) | "
+                     "K' +- %.3g / +- %.3g, T' +- %.3g / +- %.3g; the current walked about %.3f m/s per "
+                     "minute (sqrt of its variance rate) |" % (
+                         n["k_prime_sd_fit"], n["k_prime_sd_current"], n["t_prime_sd_fit"],
+                         n["t_prime_sd_current"], math.sqrt(60.0 * fit["current_drift"]["q_mps2_per_s"])))
+        if "dead_time_s" in n:
+            L.append("| dead time, rudder report -> heading (the flow lag, the GNSS latency's error and the "
+                     "report timing together: the flow lag itself is not identified) | %s s |" % _pm(
+                         n["dead_time_s"], n["dead_time_sd_s"], "%.2f"))
+        else:
+            L.append("| rudder flow lag | %s s |" % _pm(n["rudder_lag_s"], n["rudder_lag_sd_s"], "%.2f"))
+        L.append("| wind's yaw moment modelled from | %s |" % (
+            "the wind sensor's apparent wind" if n.get("wind_model") == "sensor"
+            else "the heading (a constant wind: no wind sensor in the log)"))
+        L.append("| heading fit RMS | %.2f deg over %d windows of 20 s (zig-zag and circles) |" % (
+            n["rms_deg"], n["windows"]))
+    L.append("| turning radius (circles, %s) | %s m |" % (
+        "full rudder" if n is None else "%.0f deg rudder" % ci["rudder_deg"], _pm(ci["radius_m"], ci["radius_sd_m"], "%.2f")))
+    if n is not None:
+        L.append("| ... from K' at that rudder (check) | %.2f m |" % ci["radius_from_k_prime_m"])
     L.append("| current seen | %.2f m/s towards %.0f deg (+- %.2f) |" % (cur["speed_mps"], cur["to_deg"], cur["sd_mps"]))
     if len(cur.get("by_time", ())) > 1:
         # each group of circles' own current; the water speed takes it in time between them
@@ -313,9 +325,10 @@ def report_text(fit, plots, args):
     L.append("**Recommended: %s** (%s). config.json holds it%s.\n" % (
         fit["recommended"][0], fit["recommended"][1],
         "" if fit["recommended"][0] == "tuned" else ": the measured boat's radius and RPM map with the law's default guidance"))
-    L.append("Predicted accuracy on the fitted boat: `trackpilot sim TRACK --boat fit.json "
-             "--fw-config config.json`; on a logged run: `trackpilot replay LOG --closed-loop "
-             "--boat fit.json --law los --fw-config config.json`.\n")
+    if fit["sim_params"] is not None:
+        L.append("Predicted accuracy on the fitted boat: `trackpilot sim TRACK --boat fit.json "
+                 "--fw-config config.json`; on a logged run: `trackpilot replay LOG --closed-loop "
+                 "--boat fit.json --law los --fw-config config.json`.\n")
     L.append("Install: `trackpilot upload --config config.json` (STANDBY only; validated on the board).\n")
     if plots:
         L.append("## Plots\n")
@@ -333,20 +346,21 @@ def plot_fits(fit, out):
 
     names = []
     # Nomoto: the windows' measured heading against the model
-    win, fits = fit["nomoto"]["_plot"]
-    fig, ax = plt.subplots(figsize=(10, 4))
-    for wi in range(win.W):
-        tt = win.i0[wi] * win.dt + win.w[wi] * win.dt + wi * (win.n * win.dt + 2)
-        ax.plot(tt, win.psi[wi], "k.", ms=2)
-        ax.plot(tt, fits[wi], "r-", lw=1)
-    ax.set_xlabel("window (20 s each, laid end to end)")
-    ax.set_ylabel("heading change (deg)")
-    ax.set_title("Nomoto fit: K'=%.3f T'=%.3f (black: GNSS heading, red: model)" % (
-        fit["nomoto"]["k_prime"], fit["nomoto"]["t_prime"]))
-    fig.tight_layout()
-    fig.savefig(out / "nomoto_fit.png", dpi=90)
-    plt.close(fig)
-    names.append("nomoto_fit.png")
+    if fit["nomoto"] is not None:  # not identified without a rudder report
+        win, fits = fit["nomoto"]["_plot"]
+        fig, ax = plt.subplots(figsize=(10, 4))
+        for wi in range(win.W):
+            tt = win.i0[wi] * win.dt + win.w[wi] * win.dt + wi * (win.n * win.dt + 2)
+            ax.plot(tt, win.psi[wi], "k.", ms=2)
+            ax.plot(tt, fits[wi], "r-", lw=1)
+        ax.set_xlabel("window (20 s each, laid end to end)")
+        ax.set_ylabel("heading change (deg)")
+        ax.set_title("Nomoto fit: K'=%.3f T'=%.3f (black: GNSS heading, red: model)" % (
+            fit["nomoto"]["k_prime"], fit["nomoto"]["t_prime"]))
+        fig.tight_layout()
+        fig.savefig(out / "nomoto_fit.png", dpi=90)
+        plt.close(fig)
+        names.append("nomoto_fit.png")
     # compass
     rt, comp, pred = fit["compass"]["_plot"]
     fig, ax = plt.subplots(figsize=(10, 4))

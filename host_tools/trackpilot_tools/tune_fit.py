@@ -179,11 +179,13 @@ def check_rudder_sign(trial):
     if "rudder" in trial:
         return trial["rudder"]
     logged = trial.get("rudder_sign_logged", 1)
-    if logged == 0:
-        raise TuneError("the trial was sailed with pilot.rudder_sign 0 (the pilot's rudder report not "
-                        "used), so the log has no rudder angle for K' and T': set pilot.rudder_sign to 1 "
-                        "and sail the trial again")
     a = trial["a"]
+    if logged == 0 or np.max(np.abs(a["rudder"])) < 5.0:
+        # a tiller pilot may report no rudder (0x84 RR stays 0): what does not need it is still fitted
+        why = ("the trial was sailed with pilot.rudder_sign 0 (the rudder report not used)" if logged == 0
+               else "the pilot reported no rudder angle (|rudder| < 5 deg throughout)")
+        trial["rudder"] = {"sign": logged, "logged": logged, "reversed": False, "absent": why, "agree": None}
+        return trial["rudder"]
     dt = np.gradient(a["t"])
     with np.errstate(divide="ignore", invalid="ignore"):  # repeated times (two sessions): no rate
         rate = np.where(dt > 0.0, np.gradient(a["heading"]) / dt, 0.0)
@@ -1056,7 +1058,7 @@ def fit_circle(trial, u, nomoto):
     sd = math.sqrt(sd * sd + RADIUS_SD_MODEL_M ** 2) if math.isfinite(sd) else sd
     rud = float(np.mean([r[1] for r in rows]))
     R = float(np.mean(Rs))
-    R_k = nomoto["length_m"] / (nomoto["k_prime"] * rud * D2R) if rud > 1 else float("nan")
+    R_k = nomoto["length_m"] / (nomoto["k_prime"] * rud * D2R) if nomoto and rud > 1 else float("nan")
     return {"radius_m": R, "radius_sd_m": sd, "rudder_deg": rud,
             "radius_from_k_prime_m": float(R_k), "by_direction": [(r[3], r[0], r[4]) for r in rows]}
 
@@ -1478,6 +1480,8 @@ def uncertainty_problems(fit, pooled=0):
     trials pooled into `fit` (tune_pool), whose advice is another whole trial."""
     out = []
     for part, sd_key, rel_key, lim, name, redo in UNCERTAINTY_LIMITS:
+        if fit[part] is None:
+            continue  # not identified (no rudder report): said in the warnings, not needed by the config
         sd = fit[part][sd_key]
         v = sd / abs(fit[part][rel_key]) if rel_key else sd
         if not math.isfinite(v) or v > lim:
@@ -1554,6 +1558,11 @@ def warnings(fit):
     """Things the report points out that do not stop the configuration."""
     out = []
     rs = fit.get("rudder") or {}
+    if rs.get("absent"):
+        out.append("%s: K', T', the rudder's dead time and the pilot's own gain are not identified, so "
+                   "`sim --boat`, `replay --closed-loop --boat` and `tune --sweep` cannot sail this boat. "
+                   "The configuration needs none of them: the turning radius, the RPM map, the compass "
+                   "and the closed heading response are fitted as usual" % rs["absent"])
     if rs.get("reversed"):
         out.append("the pilot's rudder report has the other sign (+ = steer left: the rudder and the "
                    "turn disagreed on %.0f %% of the circles' samples): tune used it turned round, and the "
@@ -1587,13 +1596,19 @@ def fit_all(d, length_m=5.0, gnss_latency_s=0.075, trial=None):
     u = water_speed(tr, cur)
     sm = fit_speed_map(tr, u)
     comp = fit_compass(tr, gnss_latency_s)
-    nom = fit_nomoto(tr, u, length_m, gnss_latency_s)
     drift = current_drift(tr, cur)
-    add_current_uncertainty(nom, cur, current_uncertainty(tr, cur, nom, drift))
+    if rudder.get("absent"):
+        # K', T' and the pilot's own gain need the rudder; the radius, the speed map, the compass
+        # and the closed heading response (all the configuration takes) do not
+        nom = None
+        pg = {"gain": 0.0, "why": rudder["absent"]}
+    else:
+        nom = fit_nomoto(tr, u, length_m, gnss_latency_s)
+        add_current_uncertainty(nom, cur, current_uncertainty(tr, cur, nom, drift))
+        pg = fit_pilot_gain(tr, comp, gnss_latency_s)
     circ = fit_circle(tr, u, nom)
     steps = fit_steps(tr)
     zz = fit_zigzag(tr)
-    pg = fit_pilot_gain(tr, comp, gnss_latency_s)
     fit = {"trial": {"start_s": tr["t0"], "duration_s": tr["t1"] - tr["t0"],
                      "manoeuvres": [(k, round(t0 - tr["t0"], 1), round(t1 - tr["t0"], 1)) for k, t0, t1, _ in tr["segments"]]},
            "current": cur, "speed_map": sm, "compass": comp, "nomoto": nom, "circle": circ,
@@ -1608,9 +1623,10 @@ def derive_all(fit):
     its margins, the simulator's boat, the pilot's limit-cycle check and the report's warnings."""
     nom, sm, pg = fit["nomoto"], fit["speed_map"], fit["pilot_gain"]
     fit["config"], fit["margins"] = derive_guidance(nom, fit["circle"], fit["steps"], sm)
-    if fit.get("rudder"):
+    if fit.get("rudder") and not fit["rudder"].get("absent"):
         fit["config"]["pilot"] = {"rudder_sign": fit["rudder"]["sign"]}
-    fit["sim_params"] = sim_params(nom, fit["compass"], sm, pg)
+    # the simulator's boat needs K' and T' (None: `sim --boat` and the sweep say why)
+    fit["sim_params"] = sim_params(nom, fit["compass"], sm, pg) if nom is not None else None
     fit["limit_cycles"] = pilot_limit_cycles(fit["sim_params"]) if pg.get("gain", 0.0) > 0.0 else []
     fit["warnings"] = warnings(fit)
     return fit

@@ -101,25 +101,12 @@ def fit_trials(d, length_m=5.0, gnss_latency_s=0.075):
     return pool_fits(fits, len(trials), skipped)
 
 
-def pool_fits(numbered_fits, n_trials=None, skipped=()):
-    """[(trial number, fit_all result)] of one boat -> one fit: the last trial's, with the pooled
-    values in its place and `pooled` telling what each trial gave."""
-    fits = [f for _, f in numbered_fits]
-    last = fits[-1]
-    fit = dict(last)  # the last trial's data, plots and current; the pooled parts are copies
-    per_trial = []
-    for n, f in numbered_fits:
-        nom, circ, comp = f["nomoto"], f["circle"], f["compass"]
-        per_trial.append({"trial": n, "start_s": f["trial"]["start_s"], "duration_s": f["trial"]["duration_s"],
-                          "k_prime": nom["k_prime"], "k_prime_sd": nom["k_prime_sd"],
-                          "t_prime": nom["t_prime"], "t_prime_sd": nom["t_prime_sd"],
-                          "radius_m": circ["radius_m"], "radius_sd_m": circ["radius_sd_m"],
-                          "compass_lag_s": comp["lag_s"], "compass_lag_sd_s": comp["lag_sd_s"],
-                          "pilot_gain": f["pilot_gain"].get("gain", 0.0),
-                          "problems": list(f["problems"])})
-    birge = {}
-
-    nom = copy.copy(last["nomoto"])
+def _pool_nomoto(fits, birge):
+    """K', T' and the dead time pooled over the trials that identified them (a trial whose pilot
+    reported no rudder did not); None when none did."""
+    if not fits:
+        return None
+    nom = copy.copy(fits[-1]["nomoto"])
     n = len(fits)
     for key in ("k_prime", "t_prime"):
         v, s, b = _pool_log([f["nomoto"][key] for f in fits], [f["nomoto"][key + "_sd"] for f in fits])
@@ -133,6 +120,29 @@ def pool_fits(numbered_fits, n_trials=None, skipped=()):
     for k in [k for k in nom if "_sd_fit" in k or k.endswith("_sd_current") or k == "current_uncertainty"]:
         nom.pop(k)
     nom["windows"] = sum(f["nomoto"]["windows"] for f in fits)
+    return nom
+
+
+def pool_fits(numbered_fits, n_trials=None, skipped=()):
+    """[(trial number, fit_all result)] of one boat -> one fit: the last trial's, with the pooled
+    values in its place and `pooled` telling what each trial gave."""
+    fits = [f for _, f in numbered_fits]
+    last = fits[-1]
+    fit = dict(last)  # the last trial's data, plots and current; the pooled parts are copies
+    per_trial = []
+    for n, f in numbered_fits:
+        nom, circ, comp = f["nomoto"] or {}, f["circle"], f["compass"]  # {}: no rudder report
+        per_trial.append({"trial": n, "start_s": f["trial"]["start_s"], "duration_s": f["trial"]["duration_s"],
+                          "k_prime": nom.get("k_prime"), "k_prime_sd": nom.get("k_prime_sd"),
+                          "t_prime": nom.get("t_prime"), "t_prime_sd": nom.get("t_prime_sd"),
+                          "radius_m": circ["radius_m"], "radius_sd_m": circ["radius_sd_m"],
+                          "compass_lag_s": comp["lag_s"], "compass_lag_sd_s": comp["lag_sd_s"],
+                          "pilot_gain": f["pilot_gain"].get("gain", 0.0),
+                          "problems": list(f["problems"])})
+    birge = {}
+
+    n = len(fits)
+    nom = _pool_nomoto([f for f in fits if f["nomoto"] is not None], birge)
 
     circ = copy.copy(last["circle"])
     circ["radius_m"], sd, birge["radius_m"] = pool(
@@ -186,6 +196,9 @@ def pool_fits(numbered_fits, n_trials=None, skipped=()):
                                     "trial" % (100 * g_sd / g, len(claimed)))
 
     fit.update(nomoto=nom, circle=circ, compass=comp, steps=steps, speed_map=sm, pilot_gain=pg)
+    with_rudder = [f for f in fits if not (f.get("rudder") or {}).get("absent")]
+    if with_rudder:  # the sign the configuration gets: from the last trial that saw the rudder
+        fit["rudder"] = with_rudder[-1].get("rudder")
     fit["_trial"] = dict(last["_trial"], hunts=[])  # hunts are each trial's own (below)
     fit["pooled"] = {"trials": len(fits), "of": n_trials or len(fits), "used": [n for n, _ in numbered_fits],
                      "skipped": list(skipped), "per_trial": per_trial, "birge": birge}

@@ -202,6 +202,34 @@ def test_a_reversed_rudder_report_is_found_and_configured(tmp_path, capsys):
     assert "other sign" not in out
 
 
+def test_a_pilot_without_a_rudder_report_still_gets_its_configuration(tmp_path, capsys):
+    """A tiller pilot may put 0 in the 0x84 rudder byte: K', T' and its own gain cannot be fitted,
+    but everything the configuration takes (turning radius, RPM map, closed heading response) is;
+    `sim --boat` and `tune --sweep` say why they cannot sail that fit."""
+    run, logs = _trial(tmp_path / "t", overrides={"pilot": {"rudder_report_sign": 0}})
+    assert run.stop_reason == "finished", run.stop_reason
+    rc = _cli(["tune", *map(str, logs), "--out", str(tmp_path / "tune"), "--no-plots"])
+    out = capsys.readouterr().out
+    assert rc == 0
+    fit = json.loads((tmp_path / "tune" / "fit.json").read_text())
+    assert fit["nomoto"] is None and fit["sim_params"] is None
+    assert "no rudder angle" in fit["rudder"]["absent"]
+    assert "not identified" in out and "no rudder angle" in out
+    cfg = json.loads((tmp_path / "tune" / "config.json").read_text())
+    assert "pilot" not in cfg  # the sign is not known
+    assert cfg["boat"]["min_turn_radius_m"] > 5
+    assert fit["circle"]["radius_m"] == pytest.approx(run.p["boat"]["length_m"] / (
+        run.p["boat"]["k_prime"] * math.radians(run.p["pilot"]["rudder_limit_deg"])), rel=0.15)
+    assert cfg["guidance"]["los_alos_gain"] > 0 and cfg["motor"]["rpm_per_mps"] > 0
+    rc = _cli(["sim", str(TRACK), "--boat", str(tmp_path / "tune" / "fit.json"), "--duration-s", "10",
+               "--out", str(tmp_path / "sim"), "--no-plots"])
+    err = capsys.readouterr().err
+    assert rc != 0 and "cannot be sailed" in err and "Traceback" not in err
+    rc = _cli(["tune", *map(str, logs), "--out", str(tmp_path / "tune2"), "--no-plots", "--sweep", "2"])
+    err = capsys.readouterr().err
+    assert rc != 0 and "--sweep" in err and "Traceback" not in err
+
+
 def test_tune_sweep_around_the_fit(trial_run, tmp_path, capsys):
     """--sweep on a tiny N: boats drawn around the fit sail the tuned and the default guidance on
     the robust bench's engine; config.json is the recommended one."""
