@@ -293,6 +293,44 @@ def test_no_rudder_reported_is_refused():
         F.fit_nomoto(tr, F.water_speed(tr, cur))
 
 
+def test_the_rudder_reports_sign_from_the_circles():
+    tr = _synthetic()
+    assert F.check_rudder_sign(tr) == {"sign": 1, "logged": 1, "reversed": False, "agree": 1.0}
+    # reported the other way round: turned round for the fits, the configuration's sign -1
+    tr = _synthetic()
+    tr["a"]["rudder"] = -tr["a"]["rudder"]
+    rs = F.check_rudder_sign(tr)
+    assert rs["reversed"] and rs["sign"] == -1 and rs["agree"] == 1.0
+    assert np.all(tr["a"]["rudder"] == _synthetic()["a"]["rudder"])
+    assert F.check_rudder_sign(tr) is rs  # once: a second call does not turn it back
+    # sailed with rudder_sign -1 already and still reversed: the sign goes back to 1
+    tr = _synthetic()
+    tr["a"]["rudder"] = -tr["a"]["rudder"]
+    tr["rudder_sign_logged"] = -1
+    assert F.check_rudder_sign(tr)["sign"] == 1
+
+
+def test_a_rudder_report_that_fits_neither_sign_is_refused():
+    tr = _synthetic()
+    rng = np.random.default_rng(1)
+    tr["a"]["rudder"] = tr["a"]["rudder"] * rng.choice([-1.0, 1.0], len(tr["a"]["rudder"]))  # noise
+    with pytest.raises(F.TuneError, match="neither sign"):
+        F.check_rudder_sign(tr)
+    tr = _synthetic()
+    tr["a"]["rudder"] = np.clip(tr["a"]["rudder"], -6.0, 6.0)  # never at 10 deg in the circles
+    with pytest.raises(F.TuneError, match="never stood at 10 deg"):
+        F.check_rudder_sign(tr)
+
+
+def test_no_rudder_report_leaves_the_nomoto_fit_out():
+    tr = _synthetic(rudder_available=False)
+    rs = F.check_rudder_sign(tr)
+    assert "no rudder angle" in rs["absent"] and rs["sign"] == 1
+    tr = _synthetic()
+    tr["rudder_sign_logged"] = 0
+    assert "rudder_sign 0" in F.check_rudder_sign(tr)["absent"]
+
+
 def test_phase_margin_and_derived_lookahead():
     pm, w = F.phase_margin_deg(2.0, 1.0, 0.0)
     x = w * 1.0
