@@ -103,7 +103,10 @@ def _cut_trial(d, ev, b, j):
     for t, txt in ev[b + 1:j + 1]:
         words = txt.split()
         if len(words) >= 2 and words[1] == "start":
-            open_ = (words[0], t, _kv(words[2:]))
+            info = _kv(words[2:])
+            if "budget" in words[2:]:  # the trial's time budget, not the phase's own limit, set "max"
+                info["budget"] = True
+            open_ = (words[0], t, info)
         elif len(words) >= 2 and words[1] == "end" and open_ is not None and open_[0] == words[0]:
             info = dict(open_[2])
             info.update(_kv(words[2:]))
@@ -1573,6 +1576,13 @@ def warnings(fit):
         out.append("the pilot's rudder report has the other sign (+ = steer left: the rudder and the "
                    "turn disagreed on %.0f %% of the circles' samples): tune used it turned round, and the "
                    "configuration sets pilot.rudder_sign %d" % (100 * rs["agree"], rs["sign"]))
+    cut = [(k, info) for k, _t0, _t1, info in fit["_trial"]["segments"] if info.get("budget")]
+    if cut:
+        out.append("the trial's time budget shortened %s (the script ends by itself shortly before "
+                   "trial.max_duration_s): on this boat give the trial more time (trial.max_duration_s) "
+                   "or a shorter straight run (trial.straight_s) next time" % ", ".join(
+                       "the %s at %d RPM to %d s" % ("zig-zag" if k == "zigzag" else k, info.get("rpm", 0),
+                                                     info.get("max", 0)) for k, info in cut))
     for rpm, s in fit["steps"]["by_rpm"].items():
         if s["unsettled"]:
             out.append("%d of the %d course steps at %d RPM had not settled within step_max_s (the "

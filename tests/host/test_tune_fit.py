@@ -331,6 +331,16 @@ def test_no_rudder_report_leaves_the_nomoto_fit_out():
     assert "rudder_sign 0" in F.check_rudder_sign(tr)["absent"]
 
 
+def test_phases_the_trials_budget_shortened_are_pointed_out():
+    tr = _synthetic()
+    fit = {"_trial": tr, "steps": {"by_rpm": {}}}
+    assert not [w for w in F.warnings(fit) if "budget" in w]
+    k, t0, t1, info = tr["segments"][-1]
+    tr["segments"][-1] = (k, t0, t1, dict(info, rpm=1000.0, max=74.0, budget=True))
+    w = [w for w in F.warnings(fit) if "budget" in w]
+    assert len(w) == 1 and "the circle at 1000 RPM to 74 s" in w[0] and "trial.max_duration_s" in w[0]
+
+
 def test_phase_margin_and_derived_lookahead():
     pm, w = F.phase_margin_deg(2.0, 1.0, 0.0)
     x = w * 1.0

@@ -121,9 +121,10 @@ class Trial:
         self.phase = phase
         self.phase_t = t_ms
         self.settled_since = None
-        self.limit_s = self._limit_s(phase, t_ms)
+        self.limit_s, own = self._limit_s(phase, t_ms)
         if self.limit_s is not None:
-            text += " max=%d" % self.limit_s
+            # "budget": the time left, not the phase's own limit, set it (tune tells the crew)
+            text += " max=%d%s" % (self.limit_s, " budget" if self.limit_s < own else "")
         self._mark("%s start%s" % (PHASE_NAMES[phase], (" " + text) if text else ""))
 
     def _plan_after_s(self, phase):
@@ -140,7 +141,8 @@ class Trial:
         return rest + 2 * p["circle"]  # the last two circles
 
     def _limit_s(self, phase, t_ms):
-        """The time limit of a step, zig-zag or circle entered now (None for the others)."""
+        """(The time limit of a step, zig-zag or circle entered now, the phase's own limit);
+        (None, None) for the others."""
         c = self.c
         left_s = c["max_duration_s"] - c["end_margin_s"] - ticks_diff(t_ms, self.t0) / 1000.0
         if phase == P_STEP:
@@ -154,10 +156,10 @@ class Trial:
             else:
                 own = c["circle_max_s"]
                 # the last two circles share what is left
-                return int(min(own, max(floor, left_s / (2 if self.circ_dir > 0 else 1))))
+                return int(min(own, max(floor, left_s / (2 if self.circ_dir > 0 else 1)))), own
         else:
-            return None
-        return int(min(own, max(floor, left_s - self._plan_after_s(phase))))
+            return None, None
+        return int(min(own, max(floor, left_s - self._plan_after_s(phase)))), own
 
     # ---------------------------------------------------------------- control
     def start(self, t_ms, heading_deg, rudder_sign=1):
