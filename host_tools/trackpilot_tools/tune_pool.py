@@ -183,6 +183,9 @@ def pool_fits(numbered_fits, n_trials=None, skipped=()):
     pg = copy.copy(last["pilot_gain"])
     claimed = [f["pilot_gain"] for f in fits if f["pilot_gain"].get("gain", 0.0) > 0.0]
     if claimed:
+        # the last trial that claimed a gain (the last one may not have: too few large errors, no
+        # rudder report), with its report counts; the pooled numbers in its place
+        pg = copy.copy(claimed[-1])
         g, g_sd, birge["pilot_gain"] = _pool_log([c["gain"] for c in claimed], [c["gain_sd"] for c in claimed])
         g_sd = g * _with_shared(g_sd / g, SHARED_REL["pilot_gain"], len(claimed))
         pg.update(gain=g, gain_sd=g_sd, pooled_from=len(claimed))

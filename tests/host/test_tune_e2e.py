@@ -202,7 +202,7 @@ def test_a_reversed_rudder_report_is_found_and_configured(tmp_path, capsys):
     assert "other sign" not in out
 
 
-def test_a_pilot_without_a_rudder_report_still_gets_its_configuration(tmp_path, capsys):
+def test_a_pilot_without_a_rudder_report_still_gets_its_configuration(trial_run, tmp_path, capsys):
     """A tiller pilot may put 0 in the 0x84 rudder byte: K', T' and its own gain cannot be fitted,
     but everything the configuration takes (turning radius, RPM map, closed heading response) is;
     `sim --boat` and `tune --sweep` say why they cannot sail that fit."""
@@ -228,6 +228,18 @@ def test_a_pilot_without_a_rudder_report_still_gets_its_configuration(tmp_path, 
     rc = _cli(["tune", *map(str, logs), "--out", str(tmp_path / "tune2"), "--no-plots", "--sweep", "2"])
     err = capsys.readouterr().err
     assert rc != 0 and "--sweep" in err and "Traceback" not in err
+    # pooled after a trial that had the rudder (the last trial's pilot gain not claimed): K', T'
+    # and the gain from the first, the report says which trial had none
+    _, with_rudder = trial_run
+    rc = _cli(["tune", *map(str, with_rudder), *map(str, logs), "--out", str(tmp_path / "tune3"),
+               "--no-plots", "--force"])
+    out = capsys.readouterr().out
+    assert rc == 0
+    fit = json.loads((tmp_path / "tune3" / "fit.json").read_text())
+    assert fit["pooled"]["trials"] == 2 and fit["nomoto"]["k_prime"] > 0
+    assert fit["pooled"]["per_trial"][1]["k_prime"] is None and "no rudder report" in out
+    assert fit["pilot_gain"]["gain"] > 0 and "scored" in fit["pilot_gain"]
+    assert json.loads((tmp_path / "tune3" / "config.json").read_text())["pilot"]["rudder_sign"] == 1
 
 
 def test_tune_sweep_around_the_fit(trial_run, tmp_path, capsys):
