@@ -24,9 +24,9 @@ The script (each phase logged "TRIAL <phase> start/end ..." with its own numbers
               (measured: docs/COMMISSIONING.md)
 Time budget: the script ends on its own `end_margin_s` before `max_duration_s`. Each step, zig-zag
 and circle gets at most its own limit and at most what is left after the phases still to come take
-their typical time (PLAN_S); the two last circles share what is left. A slow boat with a ringing
+their typical time (_PLAN_*_S); the two last circles share what is left. A slow boat with a ringing
 pilot (boat 78 of the hidden boats: its second circle was cut at 600 s) then sails shorter circles
-instead of losing the whole trial to the limit. Its floor (`*_MIN_S`) keeps a phase long enough to
+instead of losing the whole trial to the limit. Its floor (`_*_MIN_S`) keeps a phase long enough to
 measure; only then can the limit still end it.
 Limits (any one ends the trial and sends the boat to STANDBY): `max_distance_m` from the start
 point, `max_duration_s`, water speed below `min_speed_mps` for `min_speed_grace_s` once under
@@ -40,17 +40,21 @@ Usage:
     tr.rpm, tr.course_delta_deg (a step of the locked course to send once, then 0), tr.lead_deg
     for text in tr.drain_marks(): log("TRIAL", text)
 """
-from trackpilot.compat import ticks_diff, wrap180
+from trackpilot.compat import const, ticks_diff, wrap180
 
 STEPS_DEG = (10, -10, 20, -20)
 
 # A phase's typical time (s), to budget the phases before it (the trials of the 200 hidden-boat
 # sails: step at the low / high RPM median 18 / 25 s, zig-zag median 45 / 34 s, the turn back 45 s,
-# circle at the high RPM median 65 s; docs/COMMISSIONING.md)
-PLAN_S = {"step": 20, "zigzag": 45, "turn": 45, "circle": 65}
-STEP_MIN_S = 10
-ZIGZAG_MIN_S = 30
-CIRCLE_MIN_S = 40
+# circle at the high RPM median 65 s; docs/COMMISSIONING.md), and the floor of its limit.
+# const with a leading underscore: no entry in the module's globals (RAM on the ESP32)
+_PLAN_STEP_S = const(20)
+_PLAN_ZIGZAG_S = const(45)
+_PLAN_TURN_S = const(45)
+_PLAN_CIRCLE_S = const(65)
+_STEP_MIN_S = const(10)
+_ZIGZAG_MIN_S = const(30)
+_CIRCLE_MIN_S = const(40)
 
 DEFAULTS = {
     "rpm_low": 600,
@@ -129,16 +133,15 @@ class Trial:
 
     def _plan_after_s(self, phase):
         """Typical seconds of the phases after `phase` (entered now) until the script's end."""
-        p = PLAN_S
         last_speed = self.rpm_i + 1 >= len(self.rpms)
         rest = 0
         if phase == P_STEP:  # the steps after this one, and the zig-zag at this speed
-            rest += (len(STEPS_DEG) - 1 - self.step_i) * p["step"] + p["zigzag"]
+            rest += (len(STEPS_DEG) - 1 - self.step_i) * _PLAN_STEP_S + _PLAN_ZIGZAG_S
         if not last_speed:
             if phase != P_CIRCLE and self.c["circle_low_turns"] >= 1:
-                rest += p["circle"]  # the optional circle at the low speed
-            rest += p["turn"] + len(STEPS_DEG) * p["step"] + p["zigzag"]  # the next speed
-        return rest + 2 * p["circle"]  # the last two circles
+                rest += _PLAN_CIRCLE_S  # the optional circle at the low speed
+            rest += _PLAN_TURN_S + len(STEPS_DEG) * _PLAN_STEP_S + _PLAN_ZIGZAG_S  # the next speed
+        return rest + 2 * _PLAN_CIRCLE_S  # the last two circles
 
     def _limit_s(self, phase, t_ms):
         """(The time limit of a step, zig-zag or circle entered now, the phase's own limit);
@@ -146,11 +149,11 @@ class Trial:
         c = self.c
         left_s = c["max_duration_s"] - c["end_margin_s"] - ticks_diff(t_ms, self.t0) / 1000.0
         if phase == P_STEP:
-            own, floor = c["step_max_s"], STEP_MIN_S
+            own, floor = c["step_max_s"], _STEP_MIN_S
         elif phase == P_ZIGZAG:
-            own, floor = c["zigzag_max_s"], ZIGZAG_MIN_S
+            own, floor = c["zigzag_max_s"], _ZIGZAG_MIN_S
         elif phase == P_CIRCLE:
-            floor = CIRCLE_MIN_S
+            floor = _CIRCLE_MIN_S
             if self.rpm_i + 1 < len(self.rpms):
                 own = c["circle_low_max_s"]
             else:
