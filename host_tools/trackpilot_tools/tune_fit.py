@@ -251,8 +251,12 @@ def fit_current(trial, leeway=True, per_group=True):
         circles.append(m)
         spans.append((t0, t1))
     if not circles:
-        raise TuneError("no complete turning circle in the trial: repeat the turning circles "
-                        "(the current and the turning radius come from them)")
+        short = [info for _t0, _t1, info in segments(trial, "circle") if info.get("budget")]
+        why = (" (the trial's time budget cut them to %d s: give the next trial more time, "
+               "trial.max_duration_s, or a shorter straight run, trial.straight_s)" % min(
+                   info.get("max", 0) for info in short)) if short else ""
+        raise TuneError("no complete turning circle in the trial%s: repeat the turning circles "
+                        "(the current and the turning radius come from them)" % why)
     nc = len(circles)
     # back-to-back circles share one current; circles apart in time (the one after the low-speed
     # zig-zag, the pair after the high-speed one) each have their own: the current walks

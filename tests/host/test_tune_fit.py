@@ -339,6 +339,11 @@ def test_phases_the_trials_budget_shortened_are_pointed_out():
     tr["segments"][-1] = (k, t0, t1, dict(info, rpm=1000.0, max=74.0, budget=True))
     w = [w for w in F.warnings(fit) if "budget" in w]
     assert len(w) == 1 and "the circle at 1000 RPM to 74 s" in w[0] and "trial.max_duration_s" in w[0]
+    # a budget that left no whole circle: the refusal says the time ran out, not only "repeat"
+    tr["segments"] = [(k, t0, t1, dict(info, turned=250.0, max=40.0, budget=True) if k == "circle" else info)
+                      for k, t0, t1, info in tr["segments"]]
+    with pytest.raises(F.TuneError, match="time budget cut them to 40 s.*trial.max_duration_s"):
+        F.fit_current(tr)
 
 
 def test_phase_margin_and_derived_lookahead():
