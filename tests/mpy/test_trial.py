@@ -125,13 +125,14 @@ def test_script_marks_each_manoeuvre():
         true(want in text, want)
 
 
-def _sail_script(cfg):
+def _sail_script(cfg, gain_per_s=0.1, wobble_deg=0.0):
     """Sail the script on the crude boat (15 deg/s at full lead, as a boat turns, not 30 deg an
     epoch): ([(each mark, the locked course when it came)], the action that ended it, t_ms)."""
     tr = T.Trial(cfg)
     tr.start(0, 90.0)
     b = _Boat()
-    b.gain_per_s = 0.1
+    b.gain_per_s = gain_per_s
+    b.wobble_deg = wobble_deg
     marks = []
     t = 0
     act = None
@@ -191,19 +192,8 @@ def test_a_slow_boat_with_a_ringing_pilot_still_ends_within_the_limit():
     # no step settles (the heading swings +-5 deg), and a turn takes 48 s: at each phase's own
     # limit the script would pass max_duration_s in its last circle and lose the whole trial
     # (boat 78 of the hidden boats). The budget shortens what comes last instead.
-    tr = T.Trial({"max_distance_m": 1e6})
-    tr.start(0, 90.0)
-    b = _Boat()
-    b.gain_per_s = 0.05
-    b.wobble_deg = 5.0
-    marks = []
-    t = 0
-    act = None
-    for _ in range(400):
-        act, t = b.run(tr, t, 2)
-        marks += tr.drain_marks()
-        if act is not None:
-            break
+    marks, act, t = _sail_script({"max_distance_m": 1e6}, gain_per_s=0.05, wobble_deg=5.0)
+    marks = [m for m, _ in marks]
     eq(act[0], "end", (act, marks[-6:]))
     true(t / 1000.0 <= 600 - T.DEFAULTS["end_margin_s"] + 1, t)
     steps = [m for m in marks if m.startswith("step end")]
