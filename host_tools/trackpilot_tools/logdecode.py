@@ -65,6 +65,9 @@ class Decoded:
         return sum(d.records for d in self.damage)
 
 
+SESSION_GAP_S = 60.0  # seconds put between two sessions on one time axis
+
+
 def session_key(path):
     """Sort key: (session, part) from 'SSSS-PP.tpl', else the name."""
     m = re.match(r"^(\d+)-(\d+)\.tpl$", os.path.basename(str(path)))
@@ -84,7 +87,10 @@ def decode_bytes(data, name="", into=None):
             else:
                 dt = ticks_diff(rec.t_ms, clock[1])
                 if dt <= -1000 or (rec.type == "control" and dt >= 3600000):
-                    dt = 0  # another session (ticks restarted): continue the time axis
+                    # another session (ticks restarted): continue the time axis after a gap, so a
+                    # window reaching a few seconds back from its start does not take the last
+                    # session's end (tune's trial cut starts 5 s before the trial)
+                    dt = int(SESSION_GAP_S * 1000)
                 rec.t_s = clock[0] + dt / 1000.0
             if rec.type == "control" or clock is None:
                 clock = (rec.t_s, rec.t_ms)

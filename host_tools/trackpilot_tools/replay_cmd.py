@@ -117,8 +117,10 @@ def _check_sets(config_path, sets):
 
 def _time_axis(rows, decoded):
     """Seconds since the log's first control record for each replayed row (ticks wrap at 2^30;
-    a jump outside -1 s..1 h is a new session and continues the axis, as logdecode does)."""
+    a jump outside -1 s..1 h is a new session and continues the axis after a gap, as logdecode
+    does)."""
     from trackpilot.compat import ticks_diff
+    from trackpilot_tools.logdecode import SESSION_GAP_S
 
     if not rows:
         return []
@@ -128,7 +130,7 @@ def _time_axis(rows, decoded):
     for prev, row in zip(rows, rows[1:]):
         dt = ticks_diff(int(row[0]), int(prev[0]))
         if not -1000 < dt < 3600000:
-            dt = 0
+            dt = int(SESSION_GAP_S * 1000)
         out.append(out[-1] + dt / 1000.0)
     return out
 

@@ -183,8 +183,7 @@ def check_rudder_sign(trial):
         return trial["rudder"]
     logged = trial.get("rudder_sign_logged", 1)
     a = trial["a"]
-    own = a["t"] >= trial["t0"]  # not the seconds before it (the end of another log's session)
-    if logged == 0 or not own.any() or np.max(np.abs(a["rudder"][own])) < 5.0:
+    if logged == 0 or np.max(np.abs(a["rudder"])) < 5.0:
         # a tiller pilot may report no rudder (0x84 RR stays 0): what does not need it is still fitted
         why = ("the trial was sailed with pilot.rudder_sign 0 (the rudder report not used)" if logged == 0
                else "the pilot reported no rudder angle (|rudder| < 5 deg throughout)")
