@@ -113,6 +113,8 @@ def _cut_trial(d, ev, b, j):
             info["settled"] = "NOT" not in txt
             segs.append((open_[0], open_[1], t, info))
             open_ = None
+        elif len(words) >= 2 and words[1] == "reversed" and open_ is not None and open_[0] == words[0]:
+            open_[2]["reversed_t"] = t  # the second circle's lead came round (core/trial.py)
         elif words and words[0] == "end" and open_ is not None:  # the last phase ends with the trial
             segs.append((open_[0], open_[1], t, dict(open_[2])))
             open_ = None
@@ -779,6 +781,9 @@ def _levenberg_marquardt(f, x, steps, lo3, iters=40):
     return x, r, cost
 
 
+NOMOTO_MIN_WINDOW = 50  # GNSS samples (10 s): the shortest window the Nomoto fit is cut into
+
+
 def fit_nomoto(trial, u, L=5.0, gnss_latency_s=0.075, n_meas=100, shared_bias=False, wind_terms=True,
                model="dead", prefilter_s=0.5, kinds=NOMOTO_MANOEUVRES):
     """K', T' and the delay between the reported rudder and the heading, by output error with
@@ -794,8 +799,16 @@ def fit_nomoto(trial, u, L=5.0, gnss_latency_s=0.075, n_meas=100, shared_bias=Fa
     the wave yaw band less."""
     a = trial["a"]
     rt, _comp, rud = compass_readings(a)
-    win = _Windows(trial, u, rt, rud, n_meas=n_meas, gnss_latency_s=gnss_latency_s, shared_bias=shared_bias,
-                   wind_terms=wind_terms, kinds=kinds)
+    try:
+        win = _Windows(trial, u, rt, rud, n_meas=n_meas, gnss_latency_s=gnss_latency_s, shared_bias=shared_bias,
+                       wind_terms=wind_terms, kinds=kinds)
+    except TuneError:
+        if n_meas <= NOMOTO_MIN_WINDOW:
+            raise
+        # a nimble boat sails short manoeuvres (K' 2: each circle's 720 deg in 30 s, a zig-zag in
+        # 36 s: five 20 s windows), the same again on every trial: half as long windows
+        win = _Windows(trial, u, rt, rud, n_meas=max(NOMOTO_MIN_WINDOW, n_meas // 2), gnss_latency_s=gnss_latency_s,
+                       shared_bias=shared_bias, wind_terms=wind_terms, kinds=kinds)
     win.prefilter_s = prefilter_s
     if np.max(np.abs(rud)) < 5.0:
         raise TuneError("the pilot reports no rudder angle (|rudder| < 5 deg throughout): K' and T' "
@@ -1039,13 +1052,35 @@ def add_current_uncertainty(nom, cur, unc):
 
 
 # --------------------------------------------------------------------------- circle, steps
+def _circle_begins(a, t0, t1, info):
+    """When a circle turns its own way: its "reversed" mark (the second circle's lead walked back
+    first, core/trial.py), else, in a log without it, the last time the heading still turned the
+    other way before turning its own for 3 s on end (a pilot slow to answer keys went on with the
+    first circle for half a minute)."""
+    if "reversed_t" in info:
+        return info["reversed_t"]
+    sign = info.get("dir")
+    m = _sel(a, t0, t1)
+    if not isinstance(sign, float) or m.sum() < 10:
+        return t0
+    tt, hh = a["t"][m], a["heading"][m]
+    rate = np.diff(hh) / np.maximum(np.diff(tt), 1e-3)
+    rate = np.convolve(rate, np.ones(5) / 5.0, mode="same")  # a second: not the wave yaw
+    own = rate * sign > 0.0
+    n = max(1, int(round(3.0 / max(float(np.median(np.diff(tt))), 0.05))))
+    for i in range(len(own) - n + 1):
+        if own[i:i + n].all():
+            return float(tt[i])
+    return t0
+
+
 def fit_circle(trial, u, nomoto):
     """Turning radius: water speed / yaw rate in the steady part of each circle; the minimum radius
     at the largest rudder the pilot gave, and from K' as a check."""
     a = trial["a"]
     rows = []
     for t0, t1, info in segments(trial, "circle"):
-        m = _sel(a, t0, t1, 8.0) & a["heading_ok"] & a["vel_ok"]
+        m = _sel(a, _circle_begins(a, t0, t1, info), t1, 8.0) & a["heading_ok"] & a["vel_ok"]
         if m.sum() < 30:
             continue
         tt = a["t"][m]

@@ -286,6 +286,51 @@ def test_turning_radius_from_the_circle():
     assert c["radius_m"] == pytest.approx(5.0 / (1.1 * 28 * D2R), abs=0.2)
 
 
+def test_a_circle_measured_from_when_it_turns_its_own_way():
+    # the port circle's segment starts 32 s early, while the boat still turns to starboard (a pilot
+    # slow to answer keys went on with the first circle: hidden boat 3 with a 600 ms key reply
+    # gave radii 9.8 and 16.9 m from one log)
+    want = 5.0 / (1.1 * 28 * D2R)
+    for info in ({"dir": -1.0, "turned": 720.0},  # an older log: found from the heading
+                 {"dir": -1.0, "turned": 720.0, "reversed_t": 265.0}):  # the firmware's mark
+        tr = _synthetic(kp=1.1)
+        k = [i for i, s in enumerate(tr["segments"]) if s[0] == "circle"][1]
+        tr["segments"][k] = ("circle", 230.0, 327.0, info)
+        cur = F.fit_current(tr)
+        u = F.water_speed(tr, cur)
+        n = F.fit_nomoto(tr, u, 5.0, gnss_latency_s=0.0)
+        c = F.fit_circle(tr, u, n)
+        assert [d for d, _r, _rate in c["by_direction"]] == [1, -1]
+        for _d, r, _rate in c["by_direction"]:
+            assert r == pytest.approx(want, abs=0.3), c["by_direction"]
+        assert c["radius_sd_m"] < 0.5
+
+
+def test_a_nimble_boats_short_manoeuvres_are_fitted_in_shorter_windows():
+    # K' 2: a zig-zag of 36 s and circles of 30 s give three 20 s windows, too few for the fit,
+    # and another trial would give the same: the fit cuts them into 10 s windows instead
+    tr = _synthetic(kp=1.1, tp=0.45)
+    keep = {"zigzag": (150.0, 186.0), "circle": None}
+    segs = []
+    for kind, t0, t1, info in tr["segments"]:
+        if kind == "zigzag":
+            t0, t1 = keep["zigzag"]
+        elif kind == "circle":
+            t1 = t0 + 30.0
+        segs.append((kind, t0, t1, info))
+    tr["segments"] = segs
+    cur = F.fit_current(tr)
+    u = F.water_speed(tr, cur)
+    n = F.fit_nomoto(tr, u, 5.0, gnss_latency_s=0.0)
+    assert n["windows"] >= 6
+    assert n["k_prime"] == pytest.approx(1.1, rel=0.03)
+    assert n["t_prime"] == pytest.approx(0.45, rel=0.15)
+    # 8 s of each is too little even so: refused, with the manoeuvres to sail again
+    tr["segments"] = [(k, t0, t0 + 8.0 if k in ("zigzag", "circle") else t1, i) for k, t0, t1, i in segs]
+    with pytest.raises(F.TuneError, match="too little manoeuvring"):
+        F.fit_nomoto(tr, u, 5.0, gnss_latency_s=0.0)
+
+
 def test_no_rudder_reported_is_refused():
     tr = _synthetic(rudder_available=False)
     cur = F.fit_current(tr)

@@ -222,6 +222,69 @@ def test_the_budget_gives_each_phase_its_own_limit_when_time_is_plenty():
             eq(int(m.split("max=")[1]), T.DEFAULTS[want], m)  # and no " budget" after it
 
 
+
+class _KeyBoat(_Boat):
+    """The crude boat behind a pilot that takes 10 deg keys slowly: the locked course moves one key
+    per `key_s` towards the compass + lead, the short way round as the driver (devices/st2000.py)
+    steps it; the heading turns towards the locked course at most `turn_dps`."""
+
+    def __init__(self, key_s=0.6, turn_dps=15.0):
+        _Boat.__init__(self)
+        self.key_s = key_s
+        self.turn_dps = turn_dps
+
+    def run(self, tr, t0_ms, seconds, dt_ms=200):
+        t = t0_ms
+        since_key_s = 0.0
+        for _ in range(int(seconds * 1000 / dt_ms)):
+            t += dt_ms
+            dt_s = dt_ms / 1000.0
+            since_key_s += dt_s
+            if tr.lead_deg and since_key_s >= self.key_s:
+                since_key_s = 0.0
+                e = T.wrap180(self.heading + tr.lead_deg - self.course)
+                if e >= 5.0 or e <= -5.0:
+                    self.course += 10.0 if e > 0 else -10.0
+            err = T.wrap180(self.course - self.heading)
+            old = self.heading
+            self.heading += max(-self.turn_dps, min(self.turn_dps, 2.0 * err)) * dt_s
+            rate = T.wrap180(self.heading - old) / dt_s
+            act = tr.step(t, self.heading % 360.0, self.sog, self.dist, T.wrap180(self.course - self.heading), rate)
+            self.course += tr.course_delta_deg
+            if act is not None:
+                return act, t
+        return None, t
+
+
+def test_the_second_circle_walks_the_lead_back_before_turning_the_other_way():
+    # The lead reversed at once (+150 -> -150 deg) is 300 deg away, which the driver steps the
+    # short way round, with the turn: a pilot that takes a key every 0.6 s while the boat turns
+    # 15 deg/s closes on its own compass by 1 deg a key (hidden boat 3 with a 600 ms key reply went
+    # on to starboard for 34 s, and tune's two radii were 9.8 and 16.9 m). Walked back to the
+    # compass first, against the turn, the reversal takes a few seconds.
+    tr = T.Trial({"straight_s": 20, "max_distance_m": 1e6})
+    tr.start(0, 90.0)
+    b = _KeyBoat()
+    marks = []
+    t = 0
+    act = None
+    for _ in range(900):
+        act, t = b.run(tr, t, 1)
+        marks += tr.drain_marks()
+        if act is not None:
+            break
+    eq(act[0], "end", marks[-4:])
+    i = [k for k, m in enumerate(marks) if m.startswith("circle start dir=-1")][0]
+    true(marks[i + 1].startswith("circle reversed in "), marks[i:i + 2])
+    reversal_s = float(marks[i + 1].split()[3])
+    true(reversal_s < 10.0, reversal_s)
+    ends = [m for m in marks if m.startswith("circle end")]
+    eq(len(ends), 2)
+    true("turned=72" in ends[1], ends)  # whole turns the new way, not less the old way's overshoot
+    # the first circle starts straight away (nothing to walk back)
+    j = [k for k, m in enumerate(marks) if m.startswith("circle start dir=+1")][0]
+    true(not marks[j + 1].startswith("circle reversed"), marks[j:j + 2])
+
 def _sail_until_action(tr, speed_mps):
     """Start tr and step it every 200 ms at speed_mps, on the spot, until it acts: (t_ms, action)."""
     tr.start(0, 0.0)

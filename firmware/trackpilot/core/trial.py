@@ -16,7 +16,8 @@ The script (each phase logged "TRIAL <phase> start/end ..." with its own numbers
               just `zigzag_deg` off would be reached only asymptotically), `zigzag_legs` legs
     circle    the locked course kept `circle_lead_deg` ahead of the compass (full rudder). At
               rpm_high after its zig-zag: `circle_turns` turns to starboard, then to port, each at
-              most `circle_max_s`. Optional (`circle_low_turns` >= 1, off by default): at rpm_low
+              most `circle_max_s`; the lead is walked back to the compass before the port circle
+              (mark "circle reversed in N s"). Optional (`circle_low_turns` >= 1, off by default): at rpm_low
               right after its zig-zag, that many turns to starboard ending on the reversed course
               (the turn back to the second speed), so the current that sets the zig-zag's water
               speed is measured within a minute of it; at most `circle_low_max_s`. It stays within
@@ -55,6 +56,9 @@ _PLAN_CIRCLE_S = const(65)
 _STEP_MIN_S = const(10)
 _ZIGZAG_MIN_S = const(30)
 _CIRCLE_MIN_S = const(40)
+# the second circle's reversal: the locked course is walked back to the compass (keys against the
+# turn) until it is within this of it, then set the lead the other way (see _begin_circle)
+_REVERSE_NEAR_DEG = const(20)
 
 DEFAULTS = {
     "rpm_low": 600,
@@ -279,7 +283,15 @@ class Trial:
         elif ph == P_CIRCLE:
             d = 0.0 if self.circ_prev is None else wrap180(heading_deg - self.circ_prev)
             self.circ_prev = heading_deg
-            self.circ_turned += d * self.circ_dir
+            if self.circ_back:
+                # reversing: the locked course still leads the old way; the new lead once it has
+                # come back to the compass (the turn before that is not this circle's)
+                if -self.circ_dir * pilot_err_deg <= _REVERSE_NEAR_DEG:
+                    self.circ_back = False
+                    self.lead_deg = self.circ_dir * c["circle_lead_deg"]
+                    self._mark("circle reversed in %.1f s" % in_s)
+            else:
+                self.circ_turned += d * self.circ_dir
             low = self.rpm_i + 1 < len(self.rpms)  # the optional circle after the low-speed zig-zag
             if low:
                 # whole turns, then on until the locked course (lead ahead) is the reversed course:
@@ -320,8 +332,14 @@ class Trial:
         self._enter(P_SPEED, t_ms, "rpm=%d turn=180" % self.rpm)
 
     def _begin_circle(self, t_ms, direction):
+        """A circle, the locked course `circle_lead_deg` ahead. After a circle the other way the
+        lead is first walked back to the compass (a lead of 1 deg the new way): set at once, the
+        new lead is 300 deg from the old one, which the driver takes the short way round, with the
+        turn, and a pilot slow to answer keys then chases its own compass for most of a minute
+        (a 600 ms key reply: 34 s more to starboard; docs/COMMISSIONING.md)."""
         self.circ_dir = direction
         self.circ_turned = 0.0
         self.circ_prev = None
-        self.lead_deg = direction * self.c["circle_lead_deg"]
+        self.circ_back = self.lead_deg * direction < 0
+        self.lead_deg = direction * (1 if self.circ_back else self.c["circle_lead_deg"])
         self._enter(P_CIRCLE, t_ms, "dir=%+d lead=%d rpm=%d" % (direction, self.c["circle_lead_deg"], self.rpm))
