@@ -683,6 +683,8 @@ def run(args):
 
         if args.robust is not None and args.robust < 1:
             raise UserError("--robust N: N must be at least 1 boat")
+        if args.robust_one is not None and args.robust_one < 0:
+            raise UserError("--robust-one B: B is a boat of the sweep, 1.. (0: the nominal boat)")
         return bench_robust.run(args)
 
     final = Path(args.out).resolve()

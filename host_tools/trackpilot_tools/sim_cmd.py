@@ -81,6 +81,56 @@ def build_overrides(args):
     return over
 
 
+# the environment's options and their `--set` keys: a physical range (an absurd value broke the
+# run with a traceback deep in the simulator, e.g. --current-mps 1e9 in the GNSS encoder)
+_RANGES = {
+    ("water", "current_mps"): (0.0, 3.0, "--current-mps / water.current_mps"),
+    ("wind", "speed_mps"): (0.0, 40.0, "--wind-mps / wind.speed_mps"),
+    ("wind", "gust_sd_frac"): (0.0, 2.0, "--gust-frac / wind.gust_sd_frac"),
+    ("water", "wave_yaw_rms_deg"): (0.0, 30.0, "--wave-yaw-deg / water.wave_yaw_rms_deg"),
+    ("sim", "start_offset_m"): (-1000.0, 1000.0, "--start-offset-m / sim.start_offset_m"),
+}
+
+
+def _is_number(v):
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+def _override_problem(over, base, path=()):
+    """One line naming the first simulator override whose value cannot be sailed (a number where
+    the parameter is a number, finite, within _RANGES), else None."""
+    import math
+
+    for key, v in over.items():
+        where = path + (key,)
+        d = base.get(key) if isinstance(base, dict) else None
+        if isinstance(v, dict):
+            p = _override_problem(v, d if isinstance(d, dict) else {}, where)
+            if p:
+                return p
+            continue
+        name = ".".join(where)
+        if _is_number(d) or where in _RANGES:
+            if not _is_number(v) or not math.isfinite(v):
+                return "%s=%s: a finite number is needed" % (name, json_text(v))
+            lim = _RANGES.get(where)
+            if lim and not lim[0] <= v <= lim[1]:
+                return "%s %s: outside %g..%g" % (lim[2], json_text(v), lim[0], lim[1])
+        elif isinstance(d, list) and d and all(_is_number(x) for x in d):
+            if not isinstance(v, list) or not all(_is_number(x) and math.isfinite(x) for x in v):
+                return "%s=%s: a list of finite numbers is needed, like %s" % (name, json_text(v), json_text(d))
+    return None
+
+
+def json_text(v):
+    import json
+
+    try:
+        return json.dumps(v)
+    except (TypeError, ValueError):
+        return repr(v)
+
+
 def boat_overrides(path):
     """The simulator parameters of a boat fitted by `trackpilot tune` (FIT.json's sim_params).
     ValueError with one line when the file is not such a fit."""
@@ -138,9 +188,14 @@ def check_inputs(args):
         raise UserError(e.args[0] + " (the names are in sim/boat_params.json)")
     except ValueError as e:  # a parameter file that is not JSON
         raise UserError("%s: not a JSON parameter file (%s)" % (args.params, e))
+    problem = _override_problem(over, pm.load(args.params))
+    if problem:
+        raise UserError(problem)
     errors = fwconfig.validate(fw_set)
     if errors:
         raise UserError("--fw-set: " + "; ".join(errors))
+    if args.reengage_s is not None and not 0.0 <= args.reengage_s < 1e6:
+        raise UserError("--reengage-s must be seconds >= 0")
     for name in ("duration_s", "realtime_speed"):
         v = getattr(args, name)
         if v is not None and not v > 0:

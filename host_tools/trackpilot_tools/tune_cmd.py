@@ -58,8 +58,11 @@ def run(args):
     for p in args.logs:
         if not Path(p).is_file():
             raise UserError("no such log file: %s" % p)
-    if not args.length_m > 0:
-        raise UserError("--length-m must be > 0")
+    if not 1.0 <= args.length_m <= 100.0:  # also false for NaN
+        raise UserError("--length-m must be a boat's length in metres, 1 to 100 (got %s)" % args.length_m)
+    if not 0.0 <= args.gnss_latency_ms <= 1000.0:
+        raise UserError("--gnss-latency-ms must be 0 to 1000 ms (the ZED-F9P at 5 Hz: about 75; got %s)"
+                        % args.gnss_latency_ms)
     if args.sweep < 0 or args.jobs < 1:
         raise UserError("--sweep must be >= 0 and --jobs >= 1")
     logs = _distinct_logs(args.logs)

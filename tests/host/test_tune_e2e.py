@@ -344,6 +344,20 @@ def test_tune_refuses_a_log_without_trial(tmp_path, capsys):
     assert "no commissioning trial" in err
 
 
+
+def test_tune_arguments_out_of_range_are_plain_errors(trial_run, tmp_path, capsys):
+    # --length-m 1e9 was an OverflowError traceback; a negative or NaN latency was taken, or
+    # blamed on the log ("too few compass readings")
+    _run, logs = trial_run
+    for opt, value, want in (("--length-m", "1e9", "--length-m"), ("--length-m", "0", "--length-m"),
+                             ("--length-m", "nan", "--length-m"), ("--gnss-latency-ms", "-100", "--gnss-latency-ms"),
+                             ("--gnss-latency-ms", "1e9", "--gnss-latency-ms"), ("--gnss-latency-ms", "nan", "--gnss-latency-ms")):
+        rc = _cli(["tune", *map(str, logs), "--out", str(tmp_path / "t"), "--no-plots", opt, value])
+        err = capsys.readouterr().err
+        assert rc == 2, (opt, value)
+        assert want in err and "Traceback" not in err, err
+    assert not (tmp_path / "t").exists()  # nothing written
+
 def test_sim_boat_bad_file_is_a_plain_error(tmp_path, capsys):
     bad = tmp_path / "fit.json"
     bad.write_text("{}")
