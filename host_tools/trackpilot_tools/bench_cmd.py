@@ -678,6 +678,16 @@ def run(args):
     interrupted run leaves OUT.partial/ and the older OUT untouched; outdir.py)."""
     from .outdir import fresh_output
 
+    import math
+
+    if args.seeds is not None and args.seeds < 1:
+        raise UserError("--seeds must be at least 1")
+    if args.jobs < 1:
+        raise UserError("--jobs must be at least 1 worker")
+    if not (math.isfinite(args.run_timeout) and args.run_timeout > 0):
+        raise UserError("--run-timeout must be seconds > 0")
+    if args.robust_seed < 1:
+        raise UserError("--robust-seed S: the first boat, 1.. (boat 0 is the nominal boat, always sailed)")
     if args.robust is not None or args.robust_one is not None:
         from . import bench_robust
 

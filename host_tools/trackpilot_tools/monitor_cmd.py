@@ -129,9 +129,24 @@ class SerialSource:
         return None
 
 
+def _check_numbers(args):
+    """The monitor's counts and times: one line for a value it cannot wait on."""
+    from trackpilot_tools.errors import UserError
+
+    for name in ("stale_s", "history_s"):
+        v = getattr(args, name, None)
+        if v is not None and not 0.0 < v < 1e7:  # also false for NaN
+            raise UserError("--%s must be seconds > 0" % name.replace("_", "-"))
+    if not 0.0 <= args.duration < 1e7:
+        raise UserError("--duration must be seconds >= 0 (0: until stopped)")
+    if args.count < 0:
+        raise UserError("--count must be datagrams >= 0 (0: until stopped)")
+
+
 def _source(args):
     from trackpilot_tools.errors import check_port
 
+    _check_numbers(args)
     check_port("--udp", args.udp)
     if args.web:
         check_port("--http-port", args.http_port)

@@ -370,6 +370,8 @@ def _speeds(text):
 
 def cmd_import(args):
     try:
+        if args.simplify is not None and not 0.0 <= args.simplify <= 1000.0:  # also false for NaN
+            raise TrackImportError("--simplify must be a tolerance in metres, 0 to 1000")
         speed = args.speed_kn * KNOT_MPS if args.speed_kn is not None else args.speed
         legs = _speeds(args.leg_speeds) if args.leg_speeds else None
         text, trk, warnings = import_track(

@@ -126,6 +126,12 @@ def test_cli_writes_a_file_the_firmware_loads(tmp_path, capsys):
     assert abs(trk.waypoints[0].speed_mps - 3 * 1852 / 3600) < 0.001
     assert args.func(args) == 1  # exists: not replaced without --force
     assert "--force" in capsys.readouterr().err
+    for bad in ("nan", "-1"):  # NaN was taken and wrote the file
+        args = parser.parse_args(["import", str(DATA / "opencpn_route.gpx"), "-o", str(tmp_path / "x.csv"),
+                                  "--simplify", bad])
+        assert args.func(args) == 1
+        assert "--simplify must be" in capsys.readouterr().err
+        assert not (tmp_path / "x.csv").exists()
 
 
 def test_kmz_bomb_is_refused_without_unpacking_it(tmp_path):
