@@ -676,9 +676,9 @@ class _Submitter:
 def run(args):
     """The benchmark into a fresh temporary folder, renamed to --out when it has finished (an
     interrupted run leaves OUT.partial/ and the older OUT untouched; outdir.py)."""
-    from .outdir import fresh_output
-
     import math
+
+    from .outdir import fresh_output
 
     if args.seeds is not None and args.seeds < 1:
         raise UserError("--seeds must be at least 1")

@@ -112,17 +112,17 @@ def _override_problem(over, base, path=()):
         name = ".".join(where)
         if _is_number(d) or where in _RANGES:
             if not _is_number(v) or not math.isfinite(v):
-                return "%s=%s: a finite number is needed" % (name, json_text(v))
+                return "%s=%s: a finite number is needed" % (name, _json_text(v))
             lim = _RANGES.get(where)
             if lim and not lim[0] <= v <= lim[1]:
-                return "%s %s: outside %g..%g" % (lim[2], json_text(v), lim[0], lim[1])
+                return "%s %s: outside %g..%g" % (lim[2], _json_text(v), lim[0], lim[1])
         elif isinstance(d, list) and d and all(_is_number(x) for x in d):
             if not isinstance(v, list) or not all(_is_number(x) and math.isfinite(x) for x in v):
-                return "%s=%s: a list of finite numbers is needed, like %s" % (name, json_text(v), json_text(d))
+                return "%s=%s: a list of finite numbers is needed, like %s" % (name, _json_text(v), _json_text(d))
     return None
 
 
-def json_text(v):
+def _json_text(v):
     import json
 
     try:

@@ -1054,9 +1054,9 @@ def add_current_uncertainty(nom, cur, unc):
 # --------------------------------------------------------------------------- circle, steps
 def _circle_begins(a, t0, t1, info):
     """When a circle turns its own way: its "reversed" mark (the second circle's lead walked back
-    first, core/trial.py), else, in a log without it, the last time the heading still turned the
-    other way before turning its own for 3 s on end (a pilot slow to answer keys went on with the
-    first circle for half a minute)."""
+    first, core/trial.py), else, in a log without it, the first time from which the heading turns
+    the circle's way for 3 s on end (a pilot slow to answer keys went on with the first circle for
+    half a minute)."""
     if "reversed_t" in info:
         return info["reversed_t"]
     sign = info.get("dir")
