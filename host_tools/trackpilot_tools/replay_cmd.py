@@ -99,6 +99,15 @@ def _check_sets(config_path, sets):
 
     if config_path and not Path(config_path).is_file():
         raise UserError("no such configuration file: %s" % config_path)
+    if config_path:
+        # the firmware refuses such a file (and runs its last good one): replayed, its bad
+        # entries would quietly be the defaults, and the replay not the run asked for
+        try:
+            errors = fwconfig.validate(json.loads(Path(config_path).read_text()))
+        except (OSError, UnicodeDecodeError, ValueError) as e:
+            raise UserError("--config %s: not a JSON configuration (%s)" % (config_path, e))
+        if errors:
+            raise UserError("--config %s: %s" % (config_path, "; ".join(errors)))
     cfg = {}
     for item in sets or ():
         key, eq, text = item.partition("=")

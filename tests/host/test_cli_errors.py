@@ -16,7 +16,12 @@ def _files(tmp):
     garbage.write_bytes(bytes(range(256)) * 16)
     not_json = tmp / "params.json"
     not_json.write_text("{nope")
-    return {"BAD": str(bad_track), "GARBAGE": str(garbage), "NOTJSON": str(not_json)}
+    bad_cfg = tmp / "bad_config.json"
+    bad_cfg.write_text('{"guidance": {"los_clip_deg": 1000}}')
+    nan_cfg = tmp / "nan_config.json"
+    nan_cfg.write_text('{"guidance": {"los_clip_deg": NaN}}')
+    return {"BAD": str(bad_track), "GARBAGE": str(garbage), "NOTJSON": str(not_json),
+            "BADCFG": str(bad_cfg), "NANCFG": str(nan_cfg)}
 
 
 # (argv, a fragment the one line must contain)
@@ -55,6 +60,9 @@ CASES = [
     (["replay", "{GARBAGE}"], "no trackpilot log records"),
     (["replay", "{GARBAGE}", "--set", "guidance.x=1"], "guidance.x: unknown setting"),
     (["replay", "{GARBAGE}", "--config", "/nonexistent/c.json"], "no such configuration file"),
+    (["replay", "{GARBAGE}", "--config", "{BADCFG}"], "guidance.los_clip_deg: 1000 out of range"),
+    (["replay", "{GARBAGE}", "--config", "{NANCFG}"], "guidance.los_clip_deg: nan out of range"),
+    (["replay", "{GARBAGE}", "--config", "{NOTJSON}"], "not a JSON configuration"),
     (["hmi", "preview", "--sample", "nope", "--out", "{TMP}/h"], "no sample 'nope'"),
     (["hmi", "preview", "--status", "/nonexistent/s.json", "--out", "{TMP}/h"], "No such file"),
     (["log", "decode", "nope.tpl"], "cannot read nope.tpl"),
