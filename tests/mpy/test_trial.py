@@ -80,15 +80,23 @@ class _Boat:
         self.gain_per_s = 1.0  # heading rate per deg of course error
         self.wobble_deg = 0.0  # a pilot that rings: the heading swings this much about its course
 
+    def _follow_lead(self, lead_deg, dt_s):
+        """The pilot takes the circle's lead at once."""
+        self.course = self.heading + lead_deg
+
+    def _turn_dps(self, err_deg):
+        return self.gain_per_s * err_deg
+
     def run(self, tr, t0_ms, seconds, dt_ms=200):
         t = t0_ms
+        dt_s = dt_ms / 1000.0
         for _ in range(int(seconds * 1000 / dt_ms)):
             t += dt_ms
             if tr.lead_deg:
-                self.course = self.heading + tr.lead_deg
+                self._follow_lead(tr.lead_deg, dt_s)
             old = self.heading
-            self.heading += self.gain_per_s * T.wrap180(self.course - self.heading) * dt_ms / 1000.0
-            rate = T.wrap180(self.heading - old) * 1000.0 / dt_ms
+            self.heading += self._turn_dps(T.wrap180(self.course - self.heading)) * dt_s
+            rate = T.wrap180(self.heading - old) / dt_s
             seen = self.heading + self.wobble_deg * math.sin(t / 1000.0)
             act = tr.step(t, seen % 360.0, self.sog, self.dist, T.wrap180(self.course - seen), rate)
             self.course += tr.course_delta_deg
@@ -125,14 +133,17 @@ def test_script_marks_each_manoeuvre():
         true(want in text, want)
 
 
-def _sail_script(cfg, gain_per_s=0.1, wobble_deg=0.0):
+def _sail_script(cfg, gain_per_s=0.1, wobble_deg=0.0, boat=None):
     """Sail the script on the crude boat (15 deg/s at full lead, as a boat turns, not 30 deg an
-    epoch): ([(each mark, the locked course when it came)], the action that ended it, t_ms)."""
+    epoch), or on `boat`: ([(each mark, the locked course when it came)], the action that ended
+    it, t_ms)."""
     tr = T.Trial(cfg)
     tr.start(0, 90.0)
-    b = _Boat()
-    b.gain_per_s = gain_per_s
-    b.wobble_deg = wobble_deg
+    b = boat
+    if b is None:
+        b = _Boat()
+        b.gain_per_s = gain_per_s
+        b.wobble_deg = wobble_deg
     marks = []
     t = 0
     act = None
@@ -222,7 +233,6 @@ def test_the_budget_gives_each_phase_its_own_limit_when_time_is_plenty():
             eq(int(m.split("max=")[1]), T.DEFAULTS[want], m)  # and no " budget" after it
 
 
-
 class _KeyBoat(_Boat):
     """The crude boat behind a pilot that takes 10 deg keys slowly: the locked course moves one key
     per `key_s` towards the compass + lead, the short way round as the driver (devices/st2000.py)
@@ -232,28 +242,18 @@ class _KeyBoat(_Boat):
         _Boat.__init__(self)
         self.key_s = key_s
         self.turn_dps = turn_dps
+        self._since_key_s = 0.0
 
-    def run(self, tr, t0_ms, seconds, dt_ms=200):
-        t = t0_ms
-        since_key_s = 0.0
-        for _ in range(int(seconds * 1000 / dt_ms)):
-            t += dt_ms
-            dt_s = dt_ms / 1000.0
-            since_key_s += dt_s
-            if tr.lead_deg and since_key_s >= self.key_s:
-                since_key_s = 0.0
-                e = T.wrap180(self.heading + tr.lead_deg - self.course)
-                if e >= 5.0 or e <= -5.0:
-                    self.course += 10.0 if e > 0 else -10.0
-            err = T.wrap180(self.course - self.heading)
-            old = self.heading
-            self.heading += max(-self.turn_dps, min(self.turn_dps, 2.0 * err)) * dt_s
-            rate = T.wrap180(self.heading - old) / dt_s
-            act = tr.step(t, self.heading % 360.0, self.sog, self.dist, T.wrap180(self.course - self.heading), rate)
-            self.course += tr.course_delta_deg
-            if act is not None:
-                return act, t
-        return None, t
+    def _follow_lead(self, lead_deg, dt_s):
+        self._since_key_s += dt_s
+        if self._since_key_s >= self.key_s:
+            self._since_key_s = 0.0
+            e = T.wrap180(self.heading + lead_deg - self.course)
+            if e >= 5.0 or e <= -5.0:
+                self.course += 10.0 if e > 0 else -10.0
+
+    def _turn_dps(self, err_deg):
+        return max(-self.turn_dps, min(self.turn_dps, 2.0 * err_deg))
 
 
 def test_the_second_circle_walks_the_lead_back_before_turning_the_other_way():
@@ -262,17 +262,8 @@ def test_the_second_circle_walks_the_lead_back_before_turning_the_other_way():
     # 15 deg/s closes on its own compass by 1 deg a key (hidden boat 3 with a 600 ms key reply went
     # on to starboard for 34 s, and tune's two radii were 9.8 and 16.9 m). Walked back to the
     # compass first, against the turn, the reversal takes a few seconds.
-    tr = T.Trial({"straight_s": 20, "max_distance_m": 1e6})
-    tr.start(0, 90.0)
-    b = _KeyBoat()
-    marks = []
-    t = 0
-    act = None
-    for _ in range(900):
-        act, t = b.run(tr, t, 1)
-        marks += tr.drain_marks()
-        if act is not None:
-            break
+    marks, act, t = _sail_script({"straight_s": 20, "max_distance_m": 1e6}, boat=_KeyBoat())
+    marks = [m for m, _ in marks]
     eq(act[0], "end", marks[-4:])
     i = [k for k, m in enumerate(marks) if m.startswith("circle start dir=-1")][0]
     true(marks[i + 1].startswith("circle reversed in "), marks[i:i + 2])
@@ -284,6 +275,7 @@ def test_the_second_circle_walks_the_lead_back_before_turning_the_other_way():
     # the first circle starts straight away (nothing to walk back)
     j = [k for k, m in enumerate(marks) if m.startswith("circle start dir=+1")][0]
     true(not marks[j + 1].startswith("circle reversed"), marks[j:j + 2])
+
 
 def _sail_until_action(tr, speed_mps):
     """Start tr and step it every 200 ms at speed_mps, on the spot, until it acts: (t_ms, action)."""
