@@ -103,9 +103,9 @@ def _check_sets(config_path, sets):
         # the firmware refuses such a file (and runs its last good one): replayed, its bad
         # entries would quietly be the defaults, and the replay not the run asked for
         try:
-            errors = fwconfig.validate(json.loads(Path(config_path).read_text()))
-        except (OSError, UnicodeDecodeError, ValueError) as e:
-            raise UserError("--config %s: not a JSON configuration (%s)" % (config_path, e))
+            _cfg, errors = fwconfig.parse(Path(config_path).read_bytes().decode("utf-8"))
+        except (OSError, UnicodeError) as e:
+            errors = ["not a UTF-8 text file (%s)" % e]
         if errors:
             raise UserError("--config %s: %s" % (config_path, "; ".join(errors)))
     cfg = {}

@@ -62,7 +62,7 @@ CASES = [
     (["replay", "{GARBAGE}", "--config", "/nonexistent/c.json"], "no such configuration file"),
     (["replay", "{GARBAGE}", "--config", "{BADCFG}"], "guidance.los_clip_deg: 1000 out of range"),
     (["replay", "{GARBAGE}", "--config", "{NANCFG}"], "guidance.los_clip_deg: nan out of range"),
-    (["replay", "{GARBAGE}", "--config", "{NOTJSON}"], "not a JSON configuration"),
+    (["replay", "{GARBAGE}", "--config", "{NOTJSON}"], "not valid JSON"),
     (["hmi", "preview", "--sample", "nope", "--out", "{TMP}/h"], "no sample 'nope'"),
     (["hmi", "preview", "--status", "/nonexistent/s.json", "--out", "{TMP}/h"], "No such file"),
     (["log", "decode", "nope.tpl"], "cannot read nope.tpl"),
