@@ -80,6 +80,7 @@ def fit_boat(row, out, params, more=()):
     row["sd"]["pilot_gain"] = fit["pilot_gain"].get("gain_sd", float("inf"))
     row["refusals"] = fit["problems"]
     _more_truth(row, out, params, fit, shift_s)
+    _closed_response_truth(row, params, fit)
     (Path(out) / "tune_config.json").write_text(json.dumps(fit["config"], indent=1))
     return row
 
@@ -130,6 +131,54 @@ def _more_truth(row, out, params, fit, shift_s=0.0):
         f["offset_deg"], t["offset_deg"] = c["offset_deg"], sum(off) / len(off)
     if ce:
         t["current_e_mps"], t["current_n_mps"] = sum(ce) / len(ce), sum(cn) / len(cn)
+
+
+STEP_KEYS = ("delay_s", "t63_s", "overshoot", "gain")
+
+
+def _closed_response_truth(row, params, fit):
+    """The closed heading response per RPM as tune fitted it (tune_fit.fit_steps: mean over the
+    steps at that RPM) beside the true pilot on the true boat in quiet water, stepped by the same
+    course changes (the change asked plus the pilot's standing error) and held as long, at the boat's true water speed for that RPM
+    (tune_pilot.step_response: the same definitions). The quiet water leaves out what the trial
+    sailed in (waves, gusts, current): the comparison says how much of the fitted response is the
+    pilot and the boat."""
+    from trackpilot_tools.sim.boat import interp_map
+    from trackpilot_tools.tune_pilot import step_response
+
+    b = params["boat"]
+    scale = b.get("speed_map_scale", 1.0)
+    fit_by, true_by = {}, {}
+    records = fit["steps"].get("records")
+    if records is None:  # a pooled fit: the last trial's steps as asked
+        records = [{"rpm": int(c[0]), "step_deg": float(c[1]), "hold_s": float(c[2][-1])}
+                   for c in fit["steps"]["_plot"] if len(c[2])]
+    for rpm, s in fit["steps"]["by_rpm"].items():
+        mine = [r for r in records if int(r["rpm"]) == int(rpm)]
+        mine = [r for r in mine if r.get("clean", True)] or mine  # the steps the fit used
+        if not mine:
+            continue
+        u = interp_map(b["rpm_speed_map"], int(rpm)) * scale
+        resp = [step_response(params, u, abs(r["step_deg"]), seconds=max(5.0, r["hold_s"])) for r in mine]
+        key = str(int(rpm))
+        fit_by[key] = {k: s[k] for k in STEP_KEYS}
+        true_by[key] = {k: sum(r[k] for r in resp) / len(resp) for k in STEP_KEYS}
+        true_by[key]["speed_mps"] = u
+    row["fit"]["steps"], row["truth"]["steps"] = fit_by, true_by
+
+
+def _step_errors(ok, key):
+    """|fitted - true| of one closed-response quantity over every (boat, RPM): relative for the
+    times, absolute (a fraction of the step) for the overshoot and the gain."""
+    e = []
+    for r in ok:
+        fs, ts = r["fit"].get("steps") or {}, r["truth"].get("steps") or {}
+        for rpm in fs:
+            f, t = fs[rpm][key], ts.get(rpm, {}).get(key, float("nan"))
+            if not (math.isfinite(f) and math.isfinite(t)):
+                continue
+            e.append(abs(f / t - 1.0) if key.endswith("_s") else abs(f - t))
+    return sorted(e)
 
 
 def table(rows):
@@ -203,6 +252,15 @@ def table(rows):
                              e[len(e) // 2], e[min(len(e) - 1, int(0.9 * len(e)))], e[-1],
                              sum(1 for x in e if x <= 0.5), len(e),
                              sum(1 for r in db if abs(1.0 - r["truth"]["pilot_deadband_deg"]) <= 0.5), cov, len(db)))
+    for key, goal in (("t63_s", 0.15), ("delay_s", 0.15), ("overshoot", 0.05), ("gain", 0.05)):
+        e = _step_errors(ok, key)
+        if not e:
+            continue
+        rel = key.endswith("_s")
+        k, unit = (100.0, "%") if rel else (1.0, " of the step")
+        lines.append("step %-9s |error| median %.3g%s, p90 %.3g%s, worst %.3g%s; within %g%s: %d/%d (boat x RPM)" % (
+            key, e[len(e) // 2] * k, unit, e[min(len(e) - 1, int(0.9 * len(e)))] * k, unit, e[-1] * k, unit,
+            goal * k, unit, sum(1 for x in e if x <= goal), len(e)))
     cov = []
     for key in ("k_prime", "t_prime", "radius_m", "compass_lag_s"):
         n_in = sum(1 for r in ok if abs(r["fit"][key] - r["truth"][key]) <= 2 * r["sd"][key])

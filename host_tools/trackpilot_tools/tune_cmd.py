@@ -264,7 +264,10 @@ def report_text(fit, plots, args):
     L.append("|---|---|---|---|---|---|---|")
     for rpm, s in sorted(st["by_rpm"].items()):
         L.append("| %d | %d%s | %s | %s | %s | %s | %s |" % (
-            rpm, s["steps"], (" (%d not settled)" % s["unsettled"]) if s["unsettled"] else "",
+            rpm, s["steps"], ("".join((
+                (" (%d not settled)" % s["unsettled"]) if s["unsettled"] else "",
+                (" (%d left out: the pilot was off its course as the key came)" % s["off_course"])
+                if s.get("off_course") and not s.get("all_off_course") else ""))),
             _pm(s["delay_s"], s["delay_s_sd"], "%.2f"), _pm(s["tc_s"], s["tc_s_sd"], "%.2f"),
             _pm(100 * s["overshoot"], 100 * s["overshoot_sd"] if math.isfinite(s["overshoot_sd"]) else None, "%.0f"),
             _pm(s["gain"], s["gain_sd"], "%.2f"), _pm(s["steady_err_deg"], s["steady_err_deg_sd"], "%.1f")))

@@ -32,6 +32,35 @@ def _quiet(params, speed_mps, course_deg):
     return pil, boat, pp
 
 
+def step_response(params, speed_mps, step_deg=10.0, seconds=25.0, dt=0.05):
+    """The simulator's pilot on the simulator's boat, calm, no noise, after a course step of
+    step_deg at t = 0: what tune_fit.fit_steps measures on the water, by the same definitions
+    (times from the keystroke, the pilot's key delay in them): delay_s (10 %), t63_s, overshoot
+    (peak / step - 1) and gain (the mean change over the last 3 s / step). NaN for a level never
+    reached."""
+    pil, boat, pp = _quiet(params, speed_mps, step_deg)
+    delay = pp.get("key_delay_ms", 100) / 1000.0
+    t10 = t63 = float("nan")
+    peak = 0.0
+    tail = []
+    n = int(round(seconds / dt))
+    for k in range(n):
+        rud = pil.control_step(dt, boat.heading_deg())
+        boat.step(dt, rud, 0.0)
+        boat.u_mps = speed_mps
+        y = (((boat.psi_deg + 180.0) % 360.0) - 180.0) / step_deg
+        t = (k + 1) * dt + delay
+        peak = max(peak, y)
+        if t10 != t10 and y >= 0.1:
+            t10 = t
+        if t63 != t63 and y >= 0.63:
+            t63 = t
+        if t >= seconds + delay - 3.0:
+            tail.append(y)
+    return {"delay_s": t10, "t63_s": t63, "overshoot": peak - 1.0,
+            "gain": sum(tail) / len(tail) if tail else float("nan")}
+
+
 def step_metrics(params, speed_mps, step_deg=10.0, seconds=25.0, dt=0.05):
     """The simulator's pilot on the simulator's boat, calm, no noise: (t63 s, overshoot fraction)
     after a course step of step_deg at t = 0 (plus the pilot's key delay)."""

@@ -131,7 +131,8 @@ def test_two_trials_are_pooled(trial_run, tmp_path, capsys):
 
 def test_tune_bench_checks_everything_the_trial_identifies(trial_run):
     """tune_bench compares the compass offset (the one the compass showed: its drift included) and
-    deviation, the RPM -> speed map and the current with the simulator's, beside Nomoto."""
+    deviation, the RPM -> speed map, the current and the closed heading response with the
+    simulator's, beside Nomoto."""
     from trackpilot_tools import tune_bench
 
     run, _ = trial_run
@@ -144,8 +145,14 @@ def test_tune_bench_checks_everything_the_trial_identifies(trial_run):
     for got, want in zip(f["speed_mps"], t["speed_mps"]):
         assert got == pytest.approx(want, rel=0.15)
     assert abs(f["current_e_mps"] - t["current_e_mps"]) < 0.03 and abs(f["current_n_mps"] - t["current_n_mps"]) < 0.03
+    # the closed heading response per RPM against the pilot alone on the true boat in quiet water:
+    # the lowest RPM's time to 63 % was 24 % long (5.26 s for 4.25) before the key time came from
+    # the keys sent and the levels from a fitted model
+    assert set(f["steps"]) == set(t["steps"]) and len(f["steps"]) >= 2
+    low = min(f["steps"], key=int)
+    assert f["steps"][low]["t63_s"] == pytest.approx(t["steps"][low]["t63_s"], rel=0.15), (f["steps"], t["steps"])
     text = tune_bench.table([row])
-    for key in ("offset_deg", "dev_sin_deg", "speed_mps", "current"):
+    for key in ("offset_deg", "dev_sin_deg", "speed_mps", "current", "step t63_s"):
         assert key in text, text
 
 
