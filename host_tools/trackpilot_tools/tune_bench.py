@@ -144,11 +144,11 @@ def _closed_response_truth(row, params, fit):
     sailed in (waves, gusts, current): the comparison says how much of the fitted response is the
     pilot and the boat."""
     from trackpilot_tools.sim.boat import interp_map
-    from trackpilot_tools.tune_pilot import step_response
+    from trackpilot_tools.tune_pilot import step_response, step_response_in_weather
 
     b = params["boat"]
     scale = b.get("speed_map_scale", 1.0)
-    fit_by, true_by = {}, {}
+    fit_by, true_by, weather_by = {}, {}, {}
     records = fit["steps"].get("records")
     if records is None:  # a pooled fit: the last trial's steps as asked
         records = [{"rpm": int(c[0]), "step_deg": float(c[1]), "hold_s": float(c[2][-1])}
@@ -162,17 +162,29 @@ def _closed_response_truth(row, params, fit):
         resp = [step_response(params, u, abs(r["step_deg"]), seconds=max(5.0, r["hold_s"])) for r in mine]
         key = str(int(rpm))
         fit_by[key] = {k: s[k] for k in STEP_KEYS}
-        true_by[key] = {k: sum(r[k] for r in resp) / len(resp) for k in STEP_KEYS}
+        true_by[key] = {k: _mean_finite([r[k] for r in resp]) for k in STEP_KEYS}
         true_by[key]["speed_mps"] = u
+        if all("heading0_deg" in r for r in mine):
+            resp = [step_response_in_weather(params, u, r["delta_deg"], r["heading0_deg"],
+                                             seconds=max(5.0, r["hold_s"])) for r in mine]
+            weather_by[key] = {k: _mean_finite([r[k] for r in resp]) for k in STEP_KEYS}
     row["fit"]["steps"], row["truth"]["steps"] = fit_by, true_by
+    if weather_by:
+        row["truth"]["steps_weather"] = weather_by
 
 
-def _step_errors(ok, key):
+def _mean_finite(v):
+    v = [x for x in v if math.isfinite(x)]
+    return sum(v) / len(v) if v else float("nan")
+
+
+def _step_errors(ok, key, truth="steps"):
     """|fitted - true| of one closed-response quantity over every (boat, RPM): relative for the
-    times, absolute (a fraction of the step) for the overshoot and the gain."""
+    times, absolute (a fraction of the step) for the overshoot and the gain. truth: "steps" (the
+    pilot alone in quiet water) or "steps_weather" (in the boat's steady wind and current)."""
     e = []
     for r in ok:
-        fs, ts = r["fit"].get("steps") or {}, r["truth"].get("steps") or {}
+        fs, ts = r["fit"].get("steps") or {}, r["truth"].get(truth) or {}
         for rpm in fs:
             f, t = fs[rpm][key], ts.get(rpm, {}).get(key, float("nan"))
             if not (math.isfinite(f) and math.isfinite(t)):
@@ -252,15 +264,17 @@ def table(rows):
                              e[len(e) // 2], e[min(len(e) - 1, int(0.9 * len(e)))], e[-1],
                              sum(1 for x in e if x <= 0.5), len(e),
                              sum(1 for r in db if abs(1.0 - r["truth"]["pilot_deadband_deg"]) <= 0.5), cov, len(db)))
-    for key, goal in (("t63_s", 0.15), ("delay_s", 0.15), ("overshoot", 0.05), ("gain", 0.05)):
-        e = _step_errors(ok, key)
-        if not e:
-            continue
-        rel = key.endswith("_s")
-        k, unit = (100.0, "%") if rel else (1.0, " of the step")
-        lines.append("step %-9s |error| median %.3g%s, p90 %.3g%s, worst %.3g%s; within %g%s: %d/%d (boat x RPM)" % (
-            key, e[len(e) // 2] * k, unit, e[min(len(e) - 1, int(0.9 * len(e)))] * k, unit, e[-1] * k, unit,
-            goal * k, unit, sum(1 for x in e if x <= goal), len(e)))
+    for truth, label in (("steps", "quiet water"), ("steps_weather", "steady weather")):
+        for key, goal in (("t63_s", 0.15), ("delay_s", 0.15), ("overshoot", 0.05), ("gain", 0.05)):
+            e = _step_errors(ok, key, truth)
+            if not e:
+                continue
+            rel = key.endswith("_s")
+            k, unit = (100.0, "%") if rel else (1.0, " of the step")
+            lines.append("step %-9s |error| median %.3g%s, p90 %.3g%s, worst %.3g%s; within %g%s: %d/%d "
+                         "(boat x RPM; against the pilot alone in %s)" % (
+                             key, e[len(e) // 2] * k, unit, e[min(len(e) - 1, int(0.9 * len(e)))] * k, unit,
+                             e[-1] * k, unit, goal * k, unit, sum(1 for x in e if x <= goal), len(e), label))
     cov = []
     for key in ("k_prime", "t_prime", "radius_m", "compass_lag_s"):
         n_in = sum(1 for r in ok if abs(r["fit"][key] - r["truth"][key]) <= 2 * r["sd"][key])

@@ -1249,7 +1249,7 @@ def fit_steps(trial):
         # what is left swinging at the end: the pilot's compass about its locked course, last 10 s
         tail = _sel(a, t1 - 10.0, t1)
         swing = float(np.std(wrap180(a["compass"][tail] - a["locked"][tail]))) if tail.sum() > 5 else float("nan")
-        rec = {"delta_deg": dlt, "step_deg": eff, "standing_deg": standing, "clean": bool(clean), "delay_s": d10, "t63_s": d63, "tc_s": d63 - d10,
+        rec = {"delta_deg": dlt, "step_deg": eff, "standing_deg": standing, "clean": bool(clean), "heading0_deg": h0, "delay_s": d10, "t63_s": d63, "tc_s": d63 - d10,
                "overshoot": over, "gain": gain, "steady_err_deg": abs(eff) * (1.0 - gain),
                "settled": info.get("settled", True), "end_swing_sd_deg": swing, "hold_s": t1 - tk}
         rpm = int(info.get("rpm", 0))

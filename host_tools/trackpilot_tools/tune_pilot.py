@@ -32,6 +32,64 @@ def _quiet(params, speed_mps, course_deg):
     return pil, boat, pp
 
 
+def step_response_in_weather(params, speed_mps, delta_deg, heading_deg, seconds=25.0, settle_s=120.0, dt=0.05):
+    """As step_response, but in the drawn boat's steady weather: its wind (mean speed and
+    direction, no gusts) and current (no walk), without waves or compass noise, the pilot first
+    holding heading_deg for settle_s (its trim takes the wind's moment, its deadband leaves what
+    it leaves), then the course changed by delta_deg (signed). The levels are of the step the
+    pilot was asked to make, the change plus its standing error then, as tune_fit.fit_steps
+    reads them on the water."""
+    from .bench_robust import _NoBus
+    from .sim import stcodec
+    from .sim.boat import Boat, Environment
+    from .sim.randproc import component_rng
+    from .sim.st2000_sim import ST2000Sim
+
+    water = dict(params["water"], current_walk_sd_mps=0.0, wave_yaw_rms_deg=0.0)
+    wind = dict(params["wind"], gust_sd_frac=0.0, dir_sd_deg=0.0)
+    env = Environment(water, wind, component_rng(1, "environment"))
+    pp = dict(params["pilot"], compass_noise_deg=0.0, compass_drift_sd_deg=0.0, compass_offset_deg=0.0,
+              compass_dev_sin_deg=0.0, compass_dev_cos_deg=0.0)
+    boat = Boat(params["boat"], env, 0.0, 0.0, heading_deg, u_mps=speed_mps, rpm=0.0)
+    boat.p = dict(params["boat"], surge_tau_s=1e9)
+    pil = ST2000Sim(pp, component_rng(1, "pilot"), None, _NoBus())
+    pil.mode = stcodec.MODE_AUTO
+    pil.course_deg = heading_deg % 360.0
+
+    def run(n):
+        for _ in range(n):
+            rud = pil.control_step(dt, boat.heading_deg())
+            boat.step(dt, rud, 0.0)
+            boat.u_mps = speed_mps
+            yield boat.psi_deg
+
+    for _ in run(int(round(settle_s / dt))):
+        pass
+    standing = ((pil.course_deg - pil.compass_deg + 180.0) % 360.0) - 180.0
+    eff = delta_deg + standing
+    if eff * delta_deg <= 0.0 or abs(eff) < 1.0:
+        eff = delta_deg
+    sign = 1.0 if delta_deg > 0 else -1.0
+    psi0 = boat.psi_deg
+    pil.course_deg = (pil.course_deg + delta_deg) % 360.0
+    delay = pp.get("key_delay_ms", 100) / 1000.0
+    t10 = t63 = float("nan")
+    peak = 0.0
+    tail = []
+    for k, psi in enumerate(run(int(round(seconds / dt)))):
+        y = sign * (((psi - psi0 + 180.0) % 360.0) - 180.0) / abs(eff)
+        t = (k + 1) * dt + delay
+        peak = max(peak, y)
+        if t10 != t10 and y >= 0.1:
+            t10 = t
+        if t63 != t63 and y >= 0.63:
+            t63 = t
+        if t >= seconds + delay - 3.0:
+            tail.append(y)
+    return {"delay_s": t10, "t63_s": t63, "overshoot": peak - 1.0,
+            "gain": sum(tail) / len(tail) if tail else float("nan"), "standing_deg": standing}
+
+
 def step_response(params, speed_mps, step_deg=10.0, seconds=25.0, dt=0.05):
     """The simulator's pilot on the simulator's boat, calm, no noise, after a course step of
     step_deg at t = 0: what tune_fit.fit_steps measures on the water, by the same definitions
