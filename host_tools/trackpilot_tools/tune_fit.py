@@ -1157,7 +1157,7 @@ def step_model_fit(ts, y):
     crossing alone would take for the response. Returns {"delay_s": 10 %, "t63_s", "overshoot"}
     of gain x model against the step (the same definitions as the crossings), or None when the
     curve is too short. A grid search (about 18,000 models, numpy only)."""
-    m = ts >= -2.0
+    m = (ts >= -2.0) & np.isfinite(y) & np.isfinite(ts)
     ts, y = ts[m], y[m]
     if len(ts) < 20 or ts[-1] < 3.0:
         return None
@@ -1180,6 +1180,8 @@ def step_model_fit(ts, y):
         if best is None or res[j] < best[0]:
             best = (float(res[j]), zeta, float(_STEP_DELAYS_S[j // len(_STEP_WN)]),
                     float(_STEP_WN[j % len(_STEP_WN)]), float(g[j]))
+    if not math.isfinite(best[0]):
+        return None
     _, zeta, d, wn, g = best
     tf = np.arange(0.0, max(ts[-1], 30.0), 0.02)
     yf = g * _second_order_step(tf - d, wn, zeta)

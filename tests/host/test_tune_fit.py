@@ -646,3 +646,13 @@ def test_a_step_onto_a_pilot_off_its_course_counts_what_the_pilot_was_asked():
     # every step off course: the response is still reported, from all of them, and says so
     worse = F.fit_steps(_step_trial(wave_deg=0.0, standing=(5.0, 6.0, -4.0, 7.0)))["by_rpm"][600]
     assert worse["all_off_course"] and worse["steps"] == 4
+
+
+def test_the_step_model_takes_a_gap_and_gives_up_on_no_response():
+    ts = np.arange(-2.0, 20.0, 0.2)
+    y = F._second_order_step(ts - 1.0, 0.8, 0.7)
+    y[5] = np.nan  # a sample without a valid heading
+    got = F.step_model_fit(ts, y)
+    assert got["model"]["delay_s"] == pytest.approx(1.0, abs=0.11) and got["model"]["zeta"] == 0.7
+    assert F.step_model_fit(ts, np.zeros_like(ts)) is None  # the heading never moved
+    assert F.step_model_fit(ts[:10], y[:10]) is None  # too short to fit
