@@ -179,6 +179,7 @@ SCHEMA = (
         ("rpm_low", 600, "i", 100, 3000),
         ("rpm_high", 1000, "i", 100, 3000),
         ("straight_s", 45, "i", 10, 300),
+        ("straight_high_s", 0, "i", 0, 300),  # a straight at rpm_high after the turn back (COMMISSIONING.md)
         ("step_max_s", 25, "i", 8, 120),
         ("zigzag_deg", 10, "i", 5, 30),
         ("circle_lead_deg", 150, "i", 40, 170),

@@ -1749,7 +1749,7 @@ def warnings(fit):
                        "its course (after the turn back its auto-trim holds it off for a while): the "
                        "closed response there is read from steps of another size than asked, normalised "
                        "by it. Next time let the pilot settle longer before the steps at that speed "
-                       "(trial.speed_settle_s)" % (rpm, 100 * STEP_STANDING_MAX))
+                       "(trial.straight_high_s, a straight run after the turn back)" % (rpm, 100 * STEP_STANDING_MAX))
     for u, pp in fit.get("limit_cycles", ()):
         out.append("at %.0f m/s the pilot as fitted does not come out of a %.0f deg course change: simulated "
                    "with its fitted gain, damping, deadband and ram on the fitted boat in quiet water, the "

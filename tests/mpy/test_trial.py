@@ -179,6 +179,24 @@ def test_by_default_the_circles_only_at_the_high_speed():
         "zigzag start rpm=1000", "circle start rpm=1000", "circle start rpm=1000"])
 
 
+def test_a_straight_at_the_high_speed_before_its_steps():
+    # straight_high_s: after the turn back the pilot's auto-trim is wound up and holds it off its
+    # course; a straight of that long (no keys) before the steps at the high speed lets it unwind
+    marks, act, t = _sail_script({"straight_s": 20, "straight_high_s": 30, "max_distance_m": 1e6})
+    eq(act[0], "end")
+    names = [m for m, _ in marks]
+    starts = [i for i, m in enumerate(names) if m.startswith("straight start")]
+    eq(len(starts), 2)
+    true("rpm=1000" in names[starts[1]], names[starts[1]])
+    # after the turn back's speed phase, before the first step at 1000 RPM, no key in between
+    speed_end = [i for i, m in enumerate(names) if m.startswith("speed end rpm=1000")][0]
+    first_step = [i for i, m in enumerate(names) if m.startswith("step start +10 rpm=1000")][0]
+    true(speed_end < starts[1] < first_step, (speed_end, starts[1], first_step))
+    # the locked course unchanged over it: the first step's +10 is the only change since
+    eq(T.wrap180(marks[first_step][1] - marks[starts[1]][1]), 10.0)
+    true(t / 1000.0 < 600, t)
+
+
 def test_a_circle_at_each_speed_right_after_its_zigzag():
     # circle_low_turns: the current walks, measured by a circle next to each zig-zag; the
     # low-speed one ends in the turn back (the locked course left on the reversed course)

@@ -8,7 +8,9 @@ the boat measures; it answers with what the pilot and the motor must do and queu
 The script (each phase logged "TRIAL <phase> start/end ..." with its own numbers):
     speed     rpm_low; at rpm_high after a 180 deg course change (the boat comes back), or after the
               turn back that ends the optional low-speed circle
-    straight  rpm_low, no keys for `straight_s`: compass offset, crab angle, current, RPM -> speed
+    straight  rpm_low, no keys for `straight_s`: compass offset, crab angle, current, RPM -> speed;
+              at rpm_high too for `straight_high_s` (0: none) after the turn back, so the steps
+              there begin with the pilot's auto-trim unwound
     steps     at rpm_low, then rpm_high: settle the speed, then course steps of STEPS_DEG by keystroke in the
               pilot's Auto, each held until the heading settles (or `step_max_s`)
     zigzag    after the steps at each speed: the locked course 2 x `zigzag_deg` to one side of the base course,
@@ -64,6 +66,7 @@ DEFAULTS = {
     "rpm_low": 600,
     "rpm_high": 1000,
     "straight_s": 45,
+    "straight_high_s": 0,
     "speed_settle_s": 12,
     "step_settle_s": 4,
     "step_max_s": 25,
@@ -144,7 +147,7 @@ class Trial:
         if not last_speed:
             if phase != P_CIRCLE and self.c["circle_low_turns"] >= 1:
                 rest += _PLAN_CIRCLE_S  # the optional circle at the low speed
-            rest += _PLAN_TURN_S + len(STEPS_DEG) * _PLAN_STEP_S + _PLAN_ZIGZAG_S  # the next speed
+            rest += _PLAN_TURN_S + self.c["straight_high_s"] + len(STEPS_DEG) * _PLAN_STEP_S + _PLAN_ZIGZAG_S  # the next speed
         return rest + 2 * _PLAN_CIRCLE_S  # the last two circles
 
     def _limit_s(self, phase, t_ms):
@@ -243,12 +246,14 @@ class Trial:
             turned = self.rpm_i == 0 or self._settled(t_ms, pilot_err_deg, c["step_settle_s"]) or in_s >= 45
             if in_s >= c["speed_settle_s"] and turned:
                 self._mark("speed end rpm=%d sog=%.2f" % (self.rpm, sog_mps))
-                if self.rpm_i == 0 and self.step_i == 0:
+                if (self.rpm_i == 0 and self.step_i == 0) or (self.rpm_i > 0 and c["straight_high_s"] > 0):
                     self._enter(P_STRAIGHT, t_ms, "rpm=%d heading=%.1f" % (self.rpm, heading_deg))
                 else:
                     self._begin_step(t_ms, heading_deg)
         elif ph == P_STRAIGHT:
-            if in_s >= c["straight_s"]:
+            # at the second speed: time for the pilot's auto-trim, wound up in the turn back, to
+            # unwind before the steps (docs/COMMISSIONING.md "The closed heading response ...")
+            if in_s >= (c["straight_s"] if self.rpm_i == 0 else c["straight_high_s"]):
                 self._mark("straight end sog=%.2f" % sog_mps)
                 self._begin_step(t_ms, heading_deg)
         elif ph == P_STEP:
