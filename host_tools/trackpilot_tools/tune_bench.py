@@ -138,11 +138,14 @@ STEP_KEYS = ("delay_s", "t63_s", "overshoot", "gain")
 
 def _closed_response_truth(row, params, fit):
     """The closed heading response per RPM as tune fitted it (tune_fit.fit_steps: mean over the
-    steps at that RPM) beside the true pilot on the true boat in quiet water, stepped by the same
-    course changes (the change asked plus the pilot's standing error) and held as long, at the boat's true water speed for that RPM
-    (tune_pilot.step_response: the same definitions). The quiet water leaves out what the trial
-    sailed in (waves, gusts, current): the comparison says how much of the fitted response is the
-    pilot and the boat."""
+    steps it used at that RPM) beside the true pilot on the true boat, stepped by the same course
+    changes (the change asked plus the pilot's standing error), held as long, at the boat's true
+    water speed for that RPM, read by the same definitions: in quiet water
+    (tune_pilot.step_response, truth "steps") and in the boat's steady wind and current from the
+    step's start heading (step_response_in_weather, truth "steps_weather"). Neither has the
+    trial's waves, gusts or current walk: the comparison says how much of the fitted response is
+    the pilot and the boat (docs/COMMISSIONING.md "The closed heading response against the pilot
+    alone")."""
     from trackpilot_tools.sim.boat import interp_map
     from trackpilot_tools.tune_pilot import step_response, step_response_in_weather
 

@@ -1136,7 +1136,8 @@ def _second_order_step(tau, wn, zeta):
     tau = np.maximum(tau, 0.0)
     if zeta < 1.0:
         wd = wn * math.sqrt(1.0 - zeta * zeta)
-        return 1.0 - np.exp(-zeta * wn * tau) * (np.cos(wd * tau) + zeta / math.sqrt(1.0 - zeta * zeta) * np.sin(wd * tau))
+        k = zeta / math.sqrt(1.0 - zeta * zeta)
+        return 1.0 - np.exp(-zeta * wn * tau) * (np.cos(wd * tau) + k * np.sin(wd * tau))
     if zeta == 1.0:
         return 1.0 - np.exp(-wn * tau) * (1.0 + wn * tau)
     r = math.sqrt(zeta * zeta - 1.0)
@@ -1251,8 +1252,9 @@ def fit_steps(trial):
         # what is left swinging at the end: the pilot's compass about its locked course, last 10 s
         tail = _sel(a, t1 - 10.0, t1)
         swing = float(np.std(wrap180(a["compass"][tail] - a["locked"][tail]))) if tail.sum() > 5 else float("nan")
-        rec = {"delta_deg": dlt, "step_deg": eff, "standing_deg": standing, "clean": bool(clean), "heading0_deg": h0, "delay_s": d10, "t63_s": d63, "tc_s": d63 - d10,
-               "overshoot": over, "gain": gain, "steady_err_deg": abs(eff) * (1.0 - gain),
+        rec = {"delta_deg": dlt, "step_deg": eff, "standing_deg": standing, "clean": bool(clean),
+               "heading0_deg": h0, "delay_s": d10, "t63_s": d63, "tc_s": d63 - d10, "overshoot": over,
+               "gain": gain, "steady_err_deg": abs(eff) * (1.0 - gain),
                "settled": info.get("settled", True), "end_swing_sd_deg": swing, "hold_s": t1 - tk}
         rpm = int(info.get("rpm", 0))
         by_rpm.setdefault(rpm, []).append(rec)

@@ -147,7 +147,8 @@ class Trial:
         if not last_speed:
             if phase != P_CIRCLE and self.c["circle_low_turns"] >= 1:
                 rest += _PLAN_CIRCLE_S  # the optional circle at the low speed
-            rest += _PLAN_TURN_S + self.c["straight_high_s"] + len(STEPS_DEG) * _PLAN_STEP_S + _PLAN_ZIGZAG_S  # the next speed
+            # the next speed: the turn back, its straight (if any), its steps and zig-zag
+            rest += _PLAN_TURN_S + self.c["straight_high_s"] + len(STEPS_DEG) * _PLAN_STEP_S + _PLAN_ZIGZAG_S
         return rest + 2 * _PLAN_CIRCLE_S  # the last two circles
 
     def _limit_s(self, phase, t_ms):
