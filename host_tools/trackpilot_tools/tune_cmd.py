@@ -271,6 +271,10 @@ def report_text(fit, plots, args):
             _pm(s["delay_s"], s["delay_s_sd"], "%.2f"), _pm(s["tc_s"], s["tc_s_sd"], "%.2f"),
             _pm(100 * s["overshoot"], 100 * s["overshoot_sd"] if math.isfinite(s["overshoot_sd"]) else None, "%.0f"),
             _pm(s["gain"], s["gain_sd"], "%.2f"), _pm(s["steady_err_deg"], s["steady_err_deg_sd"], "%.1f")))
+    L.append("\nTimes from the keystroke; levels of the step the pilot was asked to make (the key plus "
+             "its standing error as the key came); the delay, time constant and overshoot from a "
+             "second-order lag with dead time fitted to each step (steps.png, dashed), the gain from "
+             "its last 3 s. +- is the spread over the steps (1 sigma of the mean).")
     pg = fit.get("pilot_gain") or {}
     if pg.get("gain", 0.0) > 0.0:
         L.append("\nThe pilot's own loop (P-D models run between its reports, tune_fit.fit_pilot_gain): "
@@ -343,6 +347,9 @@ def report_text(fit, plots, args):
     return "\n".join(L) + "\n"
 
 
+_STEP_COLOURS = ("C0", "C1", "C2", "C3", "C4", "C5", "C6", "C8", "C9")  # not C7: grey is "left out"
+
+
 def plot_fits(fit, out):
     import matplotlib
 
@@ -378,15 +385,37 @@ def plot_fits(fit, out):
     fig.savefig(out / "compass_fit.png", dpi=90)
     plt.close(fig)
     names.append("compass_fit.png")
-    # steps
-    fig, ax = plt.subplots(figsize=(8, 4))
-    for rpm, dlt, ts, y in fit["steps"]["_plot"]:
-        ax.plot(ts, y, lw=1, label="%d RPM %+.0f deg" % (rpm, dlt))
-    ax.axhline(1.0, color="k", lw=0.5)
-    ax.set_xlabel("time after the key (s)")
-    ax.set_ylabel("heading change / step")
-    ax.legend(fontsize=7)
-    ax.set_title("Closed heading response to course steps")
+    # steps: each step's heading (solid) and the model fitted to it (dashed); grey: left out, the
+    # pilot was off its course as the key came
+    from trackpilot_tools.tune_fit import _second_order_step
+
+    curves = fit["steps"]["_plot"]
+    recs = fit["steps"].get("records") or []
+    if len(recs) != len(curves):
+        recs = [{}] * len(curves)  # a pooled fit: the curves of its last trial, no models
+    rpms = sorted({c[0] for c in curves})
+    fig, axes = plt.subplots(1, max(1, len(rpms)), figsize=(5 * max(1, len(rpms)), 4), squeeze=False)
+    for k, rpm_k in enumerate(rpms):
+        ax = axes[0][k]
+        for i, ((rpm, dlt, ts, y), rec) in enumerate(zip(curves, recs)):
+            if rpm != rpm_k:
+                continue
+            clean = rec.get("clean", True)
+            col = _STEP_COLOURS[i % len(_STEP_COLOURS)] if clean else "0.7"
+            label = "%+.0f deg" % dlt if clean else "%+.0f deg (left out)" % dlt
+            ax.plot(ts, y, "-", color=col, lw=1, label=label)
+            mod = rec.get("model")
+            if mod:
+                tf = np.linspace(0.0, float(ts[-1]) if len(ts) else 10.0, 200)
+                ax.plot(tf, mod["gain"] * _second_order_step(tf - mod["delay_s"], mod["wn_rad_s"], mod["zeta"]),
+                        "--", color=col, lw=1)
+        ax.axhline(1.0, color="k", lw=0.5)
+        ax.axhline(0.63, color="k", lw=0.3, ls=":")
+        ax.set_xlabel("time after the key (s)")
+        ax.set_ylabel("heading change / step")
+        ax.legend(fontsize=7)
+        ax.set_title("%d RPM (solid: heading, dashed: model)" % rpm_k)
+    fig.suptitle("Closed heading response to course steps")
     fig.tight_layout()
     fig.savefig(out / "steps.png", dpi=90)
     plt.close(fig)

@@ -1243,10 +1243,9 @@ def fit_steps(trial):
 
         d10, d63 = first(0.1), first(0.63)
         over = float(np.max(y[after]) - 1.0)
-        if STEP_MODEL:
-            mod = step_model_fit(ts, y)
-            if mod is not None:
-                d10, d63, over = mod["delay_s"], mod["t63_s"], mod["overshoot"]
+        mod = step_model_fit(ts, y) if STEP_MODEL else None
+        if mod is not None:
+            d10, d63, over = mod["delay_s"], mod["t63_s"], mod["overshoot"]
         fin = (tt >= t1 - 3.0)
         gain = float(np.mean(y[fin])) if fin.sum() else float("nan")
         # what is left swinging at the end: the pilot's compass about its locked course, last 10 s
@@ -1255,7 +1254,8 @@ def fit_steps(trial):
         rec = {"delta_deg": dlt, "step_deg": eff, "standing_deg": standing, "clean": bool(clean),
                "heading0_deg": h0, "delay_s": d10, "t63_s": d63, "tc_s": d63 - d10, "overshoot": over,
                "gain": gain, "steady_err_deg": abs(eff) * (1.0 - gain),
-               "settled": info.get("settled", True), "end_swing_sd_deg": swing, "hold_s": t1 - tk}
+               "settled": info.get("settled", True), "end_swing_sd_deg": swing, "hold_s": t1 - tk,
+               "model": mod["model"] if mod is not None else None}
         rpm = int(info.get("rpm", 0))
         by_rpm.setdefault(rpm, []).append(rec)
         records.append(dict(rec, rpm=rpm))
