@@ -137,7 +137,7 @@ STEP_KEYS = ("delay_s", "t63_s", "overshoot", "gain")
 
 
 def _closed_response_truth(row, params, fit):
-    """The closed heading response per RPM as tune fitted it (tune_fit.fit_steps: mean over the
+    """The closed heading response per RPM as tune fitted it (tune_fit.fit_steps: median over the
     steps it used at that RPM) beside the true pilot on the true boat, stepped by the same course
     changes (the change asked plus the pilot's standing error), held as long, at the boat's true
     water speed for that RPM, read by the same definitions: in quiet water
@@ -165,20 +165,24 @@ def _closed_response_truth(row, params, fit):
         resp = [step_response(params, u, abs(r["step_deg"]), seconds=max(5.0, r["hold_s"])) for r in mine]
         key = str(int(rpm))
         fit_by[key] = {k: s[k] for k in STEP_KEYS}
-        true_by[key] = {k: _mean_finite([r[k] for r in resp]) for k in STEP_KEYS}
+        true_by[key] = {k: _median_finite([r[k] for r in resp]) for k in STEP_KEYS}
         true_by[key]["speed_mps"] = u
         if all("heading0_deg" in r for r in mine):
             resp = [step_response_in_weather(params, u, r["delta_deg"], r["heading0_deg"],
                                              seconds=max(5.0, r["hold_s"])) for r in mine]
-            weather_by[key] = {k: _mean_finite([r[k] for r in resp]) for k in STEP_KEYS}
+            weather_by[key] = {k: _median_finite([r[k] for r in resp]) for k in STEP_KEYS}
     row["fit"]["steps"], row["truth"]["steps"] = fit_by, true_by
     if weather_by:
         row["truth"]["steps_weather"] = weather_by
 
 
-def _mean_finite(v):
-    v = [x for x in v if math.isfinite(x)]
-    return sum(v) / len(v) if v else float("nan")
+def _median_finite(v):
+    """The median of the finite values (fit_steps' own aggregate over the steps), NaN if none."""
+    v = sorted(x for x in v if math.isfinite(x))
+    if not v:
+        return float("nan")
+    n = len(v)
+    return v[n // 2] if n % 2 else 0.5 * (v[n // 2 - 1] + v[n // 2])
 
 
 def _step_errors(ok, key, truth="steps"):

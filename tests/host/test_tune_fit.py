@@ -569,7 +569,7 @@ def test_pooled_trials_that_disagree_are_pointed_out():
     assert disagreements({"k_prime": b}) == []
 
 
-def _step_trial(d_s=1.2, wn=0.9, zeta=0.7, wave_deg=1.5, standing=(0.0, 0.0, 2.0, 6.0), seed=3):
+def _step_trial(d_s=1.2, wn=0.9, zeta=0.7, wave_deg=1.5, standing=(0.0, 0.0, 2.0, 6.0), seed=3, wn_by_step=None):
     """Course steps of +10 deg at 600 RPM whose heading follows a second-order lag with dead time
     (d_s, wn, zeta) of the step the pilot was asked to make: the key plus its standing error
     (its course minus its compass as the key came), under wave yaw. The key leaves 0.3 s after
@@ -590,13 +590,15 @@ def _step_trial(d_s=1.2, wn=0.9, zeta=0.7, wave_deg=1.5, standing=(0.0, 0.0, 2.0
         seg = (t >= 30.0 * i) & (t < 30.0 * (i + 1))
         # the pilot holds st deg short of its course before the key, then turns through eff
         h_before = lk0 - st
-        resp = eff * F._second_order_step(t[seg] - tk - d_s, wn, zeta)
+        resp = eff * F._second_order_step(t[seg] - tk - d_s, wn_by_step[i] if wn_by_step else wn, zeta)
         heading[seg] = h_before + resp
         compass[seg] = np.round(heading[seg])  # a compass without offset or lag, whole degrees
         locked[seg] = np.where(t[seg] >= tk + 0.4, lk0 + 10.0, lk0)
         keys[seg] = np.where(t[seg] >= tk, i + 1, i)
         segs.append(("step", t0, 30.0 * i + 29.0, {"rpm": 600.0, "delta": 10.0}))
-    heading += wave_deg * np.sin(2 * math.pi * t / 3.3 + 1.0) + rng.normal(0.0, 0.2, len(t))
+        # each step meets the waves at another phase (30 s is nearly a whole number of 3.3 s)
+        heading[seg] += wave_deg * np.sin(2 * math.pi * t[seg] / 3.3 + 1.0 + 1.9 * i)
+    heading += rng.normal(0.0, 0.2, len(t))
     a = {"t": t, "heading": heading, "heading_ok": np.ones(len(t), bool), "locked": locked,
          "compass": compass, "keys": keys}
     return {"t0": 0.0, "t1": t[-1], "segments": segs, "a": a}
@@ -610,15 +612,15 @@ def _model_t63(d_s, wn, zeta):
 
 def test_the_closed_step_response_is_read_from_a_model_not_one_noisy_crossing():
     """Under 1.5 deg of wave yaw the 10 % level of a 10 deg step is within the waves: read by its
-    first crossing the delay came 1 s early and the overshoot 0.14 for 0.05 of the step. The
-    fitted model's (mean of four steps) are within 0.25 s, 0.15 s (time to 63 %) and 0.04."""
+    first crossing the delay came 0.8 s early and the overshoot 0.14 for 0.05 of the step. The
+    fitted model's (median of four steps) came within 0.1 s, 0.13 s (time to 63 %) and 0.025."""
     t63, t10, over = _model_t63(1.2, 0.9, 0.7)
     st = F.fit_steps(_step_trial(standing=(0.0, 0.0, 0.0, 0.0)))
     s = st["by_rpm"][600]
     assert s["steps"] == 4 and s["off_course"] == 0
-    assert abs(s["t63_s"] - t63) < 0.15, (s["t63_s"], t63)  # times from the key
-    assert abs(s["delay_s"] - t10) < 0.3, (s["delay_s"], t10)
-    assert abs(s["overshoot"] - over) < 0.04, (s["overshoot"], over)
+    assert abs(s["t63_s"] - t63) < 0.2, (s["t63_s"], t63)  # times from the key
+    assert abs(s["delay_s"] - t10) < 0.2, (s["delay_s"], t10)
+    assert abs(s["overshoot"] - over) < 0.035, (s["overshoot"], over)
     # the same curves read by their level crossings alone
     F.STEP_MODEL = False
     try:
@@ -656,3 +658,14 @@ def test_the_step_model_takes_a_gap_and_gives_up_on_no_response():
     assert got["model"]["delay_s"] == pytest.approx(1.0, abs=0.11) and got["model"]["zeta"] == 0.7
     assert F.step_model_fit(ts, np.zeros_like(ts)) is None  # the heading never moved
     assert F.step_model_fit(ts[:10], y[:10]) is None  # too short to fit
+
+
+def test_one_stalled_step_does_not_move_the_response():
+    """Per RPM the median over the steps: one step three times slower (a gust, a pilot stalled in
+    its deadband) moved the mean time to 63 % by 0.9 s; the median stays with the other three."""
+    t63, _, _ = _model_t63(1.2, 0.9, 0.7)
+    st = F.fit_steps(_step_trial(standing=(0.0, 0.0, 0.0, 0.0), wn_by_step=(0.9, 0.9, 0.3, 0.9)))
+    s = st["by_rpm"][600]
+    slow = [r["t63_s"] for r in st["records"]][2]
+    assert slow > t63 + 3.0, slow
+    assert abs(s["t63_s"] - t63) < 0.3, (s["t63_s"], t63)
