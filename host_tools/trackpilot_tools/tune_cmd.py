@@ -274,7 +274,8 @@ def report_text(fit, plots, args):
     L.append("\nTimes from the keystroke; levels of the step the pilot was asked to make (the key plus "
              "its standing error as the key came); the delay, time constant and overshoot from a "
              "second-order lag with dead time fitted to each step (steps.png, dashed), the gain from "
-             "its last 3 s. +- is the spread over the steps (1 sigma of the mean).")
+             "its last 3 s. Each value is the median over the steps used, +- its 1 sigma (1.25 x the "
+             "standard error a mean would have).")
     pg = fit.get("pilot_gain") or {}
     if pg.get("gain", 0.0) > 0.0:
         L.append("\nThe pilot's own loop (P-D models run between its reports, tune_fit.fit_pilot_gain): "
