@@ -8,6 +8,7 @@ Writes DIR/tune_bench.json (one row per boat) and prints the error table.
 import argparse
 import json
 import math
+import statistics
 import sys
 from pathlib import Path
 
@@ -178,11 +179,8 @@ def _closed_response_truth(row, params, fit):
 
 def _median_finite(v):
     """The median of the finite values (fit_steps' own aggregate over the steps), NaN if none."""
-    v = sorted(x for x in v if math.isfinite(x))
-    if not v:
-        return float("nan")
-    n = len(v)
-    return v[n // 2] if n % 2 else 0.5 * (v[n // 2 - 1] + v[n // 2])
+    v = [x for x in v if math.isfinite(x)]
+    return statistics.median(v) if v else float("nan")
 
 
 def _step_errors(ok, key, truth="steps"):
