@@ -388,7 +388,7 @@ def plot_fits(fit, out):
     names.append("compass_fit.png")
     # steps: each step's heading (solid) and the model fitted to it (dashed); grey: left out, the
     # pilot was off its course as the key came
-    from trackpilot_tools.tune_fit import _second_order_step
+    from trackpilot_tools.tune_fit import second_order_step
 
     curves = fit["steps"]["_plot"]
     recs = fit["steps"].get("records") or []
@@ -408,7 +408,7 @@ def plot_fits(fit, out):
             mod = rec.get("model")
             if mod:
                 tf = np.linspace(0.0, float(ts[-1]) if len(ts) else 10.0, 200)
-                ax.plot(tf, mod["gain"] * _second_order_step(tf - mod["delay_s"], mod["wn_rad_s"], mod["zeta"]),
+                ax.plot(tf, mod["gain"] * second_order_step(tf - mod["delay_s"], mod["wn_rad_s"], mod["zeta"]),
                         "--", color=col, lw=1)
         ax.axhline(1.0, color="k", lw=0.5)
         ax.axhline(0.63, color="k", lw=0.3, ls=":")

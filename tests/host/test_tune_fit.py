@@ -590,7 +590,7 @@ def _step_trial(d_s=1.2, wn=0.9, zeta=0.7, wave_deg=1.5, standing=(0.0, 0.0, 2.0
         seg = (t >= 30.0 * i) & (t < 30.0 * (i + 1))
         # the pilot holds st deg short of its course before the key, then turns through eff
         h_before = lk0 - st
-        resp = eff * F._second_order_step(t[seg] - tk - d_s, wn_by_step[i] if wn_by_step else wn, zeta)
+        resp = eff * F.second_order_step(t[seg] - tk - d_s, wn_by_step[i] if wn_by_step else wn, zeta)
         heading[seg] = h_before + resp
         compass[seg] = np.round(heading[seg])  # a compass without offset or lag, whole degrees
         locked[seg] = np.where(t[seg] >= tk + 0.4, lk0 + 10.0, lk0)
@@ -606,7 +606,7 @@ def _step_trial(d_s=1.2, wn=0.9, zeta=0.7, wave_deg=1.5, standing=(0.0, 0.0, 2.0
 
 def _model_t63(d_s, wn, zeta):
     tf = np.arange(0.0, 40.0, 0.001)
-    y = F._second_order_step(tf - d_s, wn, zeta)
+    y = F.second_order_step(tf - d_s, wn, zeta)
     return float(tf[np.nonzero(y >= 0.63)[0][0]]), float(tf[np.nonzero(y >= 0.1)[0][0]]), float(y.max() - 1.0)
 
 
@@ -622,11 +622,7 @@ def test_the_closed_step_response_is_read_from_a_model_not_one_noisy_crossing():
     assert abs(s["delay_s"] - t10) < 0.2, (s["delay_s"], t10)
     assert abs(s["overshoot"] - over) < 0.035, (s["overshoot"], over)
     # the same curves read by their level crossings alone
-    F.STEP_MODEL = False
-    try:
-        raw = F.fit_steps(_step_trial(standing=(0.0, 0.0, 0.0, 0.0)))["by_rpm"][600]
-    finally:
-        F.STEP_MODEL = True
+    raw = F.fit_steps(_step_trial(standing=(0.0, 0.0, 0.0, 0.0)), model=False)["by_rpm"][600]
     assert abs(raw["delay_s"] - t10) > abs(s["delay_s"] - t10)
     assert abs(raw["overshoot"] - over) > abs(s["overshoot"] - over)
 
@@ -652,7 +648,7 @@ def test_a_step_onto_a_pilot_off_its_course_counts_what_the_pilot_was_asked():
 
 def test_the_step_model_takes_a_gap_and_gives_up_on_no_response():
     ts = np.arange(-2.0, 20.0, 0.2)
-    y = F._second_order_step(ts - 1.0, 0.8, 0.7)
+    y = F.second_order_step(ts - 1.0, 0.8, 0.7)
     y[5] = np.nan  # a sample without a valid heading
     got = F.step_model_fit(ts, y)
     assert got["model"]["delay_s"] == pytest.approx(1.0, abs=0.11) and got["model"]["zeta"] == 0.7
