@@ -148,6 +148,8 @@ def boat_overrides(path):
                          "known (docs/COMMISSIONING.md)" % (path, why))
     if not isinstance(fit, dict) or not isinstance(fit.get("sim_params"), dict):
         raise ValueError("--boat %s: no sim_params in it (write one with `trackpilot tune LOG`)" % path)
+    for d in fit.get("doubts") or ():  # fits only the simulated boat takes, beyond their limit
+        print("note: --boat %s: %s" % (path, d), file=sys.stderr)
     return fit["sim_params"]
 
 

@@ -80,6 +80,7 @@ def fit_boat(row, out, params, more=()):
     row["sd"]["pilot_deadband_deg"] = fit["pilot_gain"].get("deadband_sd_deg", float("inf"))
     row["sd"]["pilot_gain"] = fit["pilot_gain"].get("gain_sd", float("inf"))
     row["refusals"] = fit["problems"]
+    row["doubts"] = fit.get("doubts", [])
     _more_truth(row, out, params, fit, shift_s)
     _closed_response_truth(row, params, fit)
     (Path(out) / "tune_config.json").write_text(json.dumps(fit["config"], indent=1))
@@ -291,8 +292,11 @@ def table(rows):
     cov = sum(1 for r in ok if abs(r["fit"]["t_prime"] - r["truth"]["t_prime"]) <= 2 * r["sd"]["t_prime"])
     acc = [r for r in ok if not r.get("refusals")]
     good = sum(1 for r in acc if abs(r["fit"]["t_prime"] / r["truth"]["t_prime"] - 1) <= 0.15)
+    doubt = [r for r in acc if r.get("doubts")]
+    good_d = sum(1 for r in doubt if abs(r["fit"]["t_prime"] / r["truth"]["t_prime"] - 1) <= 0.15)
     lines.append("T' within 2 sigma of its stated uncertainty: %d/%d; tune accepted %d, T' within 15 %% "
-                 "on %d of them" % (cov, len(ok), len(acc), good))
+                 "on %d of them; %d of those with a doubt on the simulated boat (T' within 15 %% on %d)"
+                 % (cov, len(ok), len(acc), good, len(doubt), good_d))
     return "\n".join(lines)
 
 

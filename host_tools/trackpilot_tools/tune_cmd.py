@@ -203,6 +203,9 @@ def report_text(fit, plots, args):
             ", ".join(args.logs), fit["trial"]["duration_s"], len(fit["trial"]["manoeuvres"])))
     if fit["problems"]:
         L.append("**TOO UNCERTAIN (written with --force):** " + "; ".join(fit["problems"]) + "\n")
+    for d in fit.get("doubts", ()):
+        L.append("**Less sure:** %s. The configuration does not take it: it is written. `sim --boat`, "
+                 "`replay --closed-loop --boat` and `tune --sweep` sail a boat only this sure of it.\n" % d)
     for w in fit.get("warnings", ()):
         L.append("Note: %s.\n" % w)
     L.extend(_pooled_lines(fit.get("pooled")))

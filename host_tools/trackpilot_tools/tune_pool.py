@@ -138,7 +138,7 @@ def pool_fits(numbered_fits, n_trials=None, skipped=()):
                           "radius_m": circ["radius_m"], "radius_sd_m": circ["radius_sd_m"],
                           "compass_lag_s": comp["lag_s"], "compass_lag_sd_s": comp["lag_sd_s"],
                           "pilot_gain": f["pilot_gain"].get("gain", 0.0),
-                          "problems": list(f["problems"])})
+                          "problems": list(f["problems"]) + list(f.get("doubts", ()))})
     birge = {}
 
     n = len(fits)
@@ -209,6 +209,7 @@ def pool_fits(numbered_fits, n_trials=None, skipped=()):
     for n, f in numbered_fits:
         problems += ["trial %d: %s" % (n, p) for p in f["problems"] if p.startswith("the pilot hunted")]
     fit["problems"] = problems
+    fit["doubts"] = F.model_doubts(fit, pooled=len(fits))
     F.derive_all(fit)
     fit["warnings"] += disagreements(birge)
     return fit

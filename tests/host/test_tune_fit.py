@@ -185,13 +185,42 @@ def test_too_uncertain_from_the_current_names_the_manoeuvre_to_sail_again():
     n, drift = _nomoto_with_current_uncertainty(tr)
     fit = {"nomoto": n, "circle": {"radius_sd_m": 0.1}, "compass": {"lag_sd_s": 0.01}, "_trial": tr,
            "current_drift": drift}
-    probs = F.uncertainty_problems(fit)
-    assert len(probs) == 1
-    msg = probs[0]
-    assert msg.startswith("T' too uncertain")
+    # T' beyond its 10 % but within 2.5 x: only the simulated boat takes T', so no refusal
+    assert 0.10 < n["t_prime_sd"] / n["t_prime"] <= 0.10 * F.MODEL_REFUSE
+    assert F.uncertainty_problems(fit) == []
+    doubts = F.model_doubts(fit)
+    assert len(doubts) == 1
+    assert doubts[0].startswith("for the simulated boat only: T' too uncertain")
+    msg = doubts[0]
     assert "from the current" in msg and "zig-zag at 1000 RPM" in msg
     assert "sail the turning circles again right after that zig-zag" in msg
     assert "0.10 m/s across" in msg  # what the zig-zag's sideways velocity showed
+
+
+def _fit_with_uncertainties(t_prime_rel, radius_sd_m=0.1, lag_sd_s=0.02):
+    tr = {"hunts": ()}
+    return {"nomoto": {"k_prime": 1.0, "k_prime_sd": 0.03, "t_prime": 0.5, "t_prime_sd": 0.5 * t_prime_rel},
+            "circle": {"radius_sd_m": radius_sd_m}, "compass": {"lag_sd_s": lag_sd_s}, "_trial": tr}
+
+
+def test_what_only_the_simulated_boat_takes_is_a_doubt_what_the_configuration_takes_refuses():
+    """The configuration takes the turning radius, not K', T' or the compass lag: T' at +-15 %
+    (1 sigma) writes the configuration with a doubt naming the manoeuvre; T' at +-30 % (beyond
+    2.5 x its 10 %) means the zig-zag or the circles failed, and the radius at +-0.6 m refuses."""
+    fit = _fit_with_uncertainties(0.15)
+    assert F.uncertainty_problems(fit) == []
+    assert F.model_doubts(fit) == ["for the simulated boat only: T' too uncertain (+-15 %, 1 sigma, limit "
+                                   "10 %): repeat the zig-zag and the turning circles"]
+    fit = _fit_with_uncertainties(0.30)
+    assert F.uncertainty_problems(fit) == ["T' too uncertain (+-30 %, 1 sigma, limit 10 %): repeat the "
+                                           "zig-zag and the turning circles"]
+    assert F.model_doubts(fit) == []
+    fit = _fit_with_uncertainties(0.05, radius_sd_m=0.6, lag_sd_s=0.2)
+    assert F.uncertainty_problems(fit) == ["the turning radius too uncertain (+-0.60, 1 sigma, limit 0.50): "
+                                           "repeat the turning circles"]
+    assert F.model_doubts(fit) == ["for the simulated boat only: the compass lag too uncertain (+-0.20, "
+                                   "1 sigma, limit 0.10): repeat the turning circles and the zig-zag"]
+    assert F.model_doubts(_fit_with_uncertainties(0.05)) == []
 
 
 def test_current_and_speed_map():
