@@ -1634,9 +1634,9 @@ def _lstsq(A, y):
 # - "model": only the simulated boat takes it (`sim --boat`, `replay --closed-loop --boat`,
 #   `tune --sweep` and the pilot-alone check). Beyond its limit the configuration is still written
 #   and the report says how sure that boat is and what to sail again to sharpen it (model_doubts);
-#   beyond MODEL_REFUSE x its limit a manoeuvre failed and tune refuses. (On 80 hidden boats T' was
-#   beyond 10 % on 37 trials and still within 15 % of the truth on 34 of them: refusing them all
-#   refused a configuration that does not use T'.)
+#   beyond MODEL_REFUSE x its limit a manoeuvre failed and tune refuses. (On 80 hidden boats 29
+#   trials were refused for T' alone, and their T' was within 15 % of the truth on 26: refusing
+#   them refused configurations that do not use T'; docs/COMMISSIONING.md "Refusals by use".)
 UNCERTAINTY_LIMITS = (
     ("nomoto", "k_prime_sd", "k_prime", 0.10, "K'", "the zig-zag and the turning circles", "model"),
     ("nomoto", "t_prime_sd", "t_prime", 0.10, "T'", "the zig-zag and the turning circles", "model"),
