@@ -70,6 +70,17 @@ def test_oscillation_metric():
     assert not BR.oscillation(sig)["oscillates"]
 
 
+def test_settled_late_rms_is_the_second_half_of_the_window():
+    # the end of an approach (0.4 m for 20 s) then a steady 0.1 m for 20 s: the window's RMS is
+    # the approach's, its second half the steady state's
+    after = [(30.0 + k * 0.2, 0.4 if k < 100 else 0.1) for k in range(200)]
+    assert BR.settled_late_rms(after) == 0.1
+    assert BR.settled_late_rms([]) is None
+    # by time, not by samples: a gap in the second half does not move the midpoint
+    gap = [(t, x) for t, x in after if not 45.0 < t < 55.0]
+    assert BR.settled_late_rms(gap) == 0.1
+
+
 def test_outside_by_phase():
     """Each sample outside 1.5 m lands in exactly one phase; corners at 50 and 100 m of track."""
     rows = [(k * 0.5, x, s, s, True) for k, (x, s) in enumerate([
