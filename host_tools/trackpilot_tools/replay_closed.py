@@ -260,12 +260,13 @@ def cmd(args, logs):
     except logdecode.LogError as e:
         raise UserError(str(e))
     if args.boat:
-        from trackpilot_tools.sim_cmd import boat_overrides
+        from trackpilot_tools.sim_cmd import boat_overrides, say_boat_doubts
 
         try:
             boat_overrides(args.boat)
         except ValueError as e:
             raise UserError(str(e))
+        say_boat_doubts(args.boat)
     final = Path(args.out or "replay_closed_out")
     with fresh_output(final) as out:
         res = resail(logs, out, args.law, args.config, args.set or (), args.boat)

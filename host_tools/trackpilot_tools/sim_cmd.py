@@ -134,6 +134,17 @@ def _json_text(v):
 def boat_overrides(path):
     """The simulator parameters of a boat fitted by `trackpilot tune` (FIT.json's sim_params).
     ValueError with one line when the file is not such a fit."""
+    return _read_boat_fit(path)["sim_params"]
+
+
+def say_boat_doubts(path):
+    """Once per command: tune's doubts about the simulated boat in FIT.json (fits only that boat
+    takes, beyond their limit), on stderr, each with the manoeuvre to sail again."""
+    for d in _read_boat_fit(path).get("doubts") or ():
+        print("note: --boat %s: %s" % (path, d), file=sys.stderr)
+
+
+def _read_boat_fit(path):
     import json
 
     try:
@@ -148,9 +159,7 @@ def boat_overrides(path):
                          "known (docs/COMMISSIONING.md)" % (path, why))
     if not isinstance(fit, dict) or not isinstance(fit.get("sim_params"), dict):
         raise ValueError("--boat %s: no sim_params in it (write one with `trackpilot tune LOG`)" % path)
-    for d in fit.get("doubts") or ():  # fits only the simulated boat takes, beyond their limit
-        print("note: --boat %s: %s" % (path, d), file=sys.stderr)
-    return fit["sim_params"]
+    return fit
 
 
 def check_inputs(args):
@@ -221,6 +230,8 @@ def udp_targets(args):
 
 def run(args):
     check_inputs(args)
+    if getattr(args, "boat", None):
+        say_boat_doubts(args.boat)  # readable: check_inputs loaded it
     final = Path(args.out)
     try:
         with fresh_output(final) as out:

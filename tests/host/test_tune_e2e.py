@@ -375,15 +375,23 @@ def test_sim_boat_bad_file_is_a_plain_error(tmp_path, capsys):
 
 def test_sim_boat_says_how_sure_the_fitted_boat_is(tmp_path, capsys):
     """A fit whose T' is beyond its limit but within what tune accepts (only the simulated boat
-    takes it): `sim --boat` sails it and repeats tune's doubt, with the manoeuvre to sail again."""
-    from trackpilot_tools.sim_cmd import boat_overrides
+    takes it): `sim --boat` sails it and repeats tune's doubt, with the manoeuvre to sail again,
+    once (the fit is read twice: the inputs' check, then the sail)."""
+    from trackpilot_tools.sim_cmd import boat_overrides, say_boat_doubts
 
     doubt = ("for the simulated boat only: T' too uncertain (+-14 %, 1 sigma, limit 10 %): repeat the "
              "zig-zag and the turning circles")
     fit = tmp_path / "fit.json"
     fit.write_text(json.dumps({"sim_params": {"boat": {"k_prime": 1.0, "t_prime": 0.5}}, "doubts": [doubt]}))
     assert boat_overrides(str(fit)) == {"boat": {"k_prime": 1.0, "t_prime": 0.5}}
+    assert capsys.readouterr().err == ""  # the loader itself says nothing: each command says it once
+    say_boat_doubts(str(fit))
     assert doubt in capsys.readouterr().err
+    rc = _cli(["sim", str(TRACK), "--boat", str(fit), "--duration-s", "5", "--out", str(tmp_path / "s"),
+               "--no-plots"])
+    err = capsys.readouterr().err
+    assert rc == 0, err
+    assert err.count(doubt) == 1
     fit.write_text(json.dumps({"sim_params": {"boat": {"k_prime": 1.0, "t_prime": 0.5}}, "doubts": []}))
-    boat_overrides(str(fit))
+    say_boat_doubts(str(fit))
     assert capsys.readouterr().err == ""
